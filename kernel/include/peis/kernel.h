@@ -1,0 +1,139 @@
+// Kernel: the one entry point of a PEIS. It owns the PEIS's tuple space and
+// a kernel thread that runs callbacks and timers. Every public call is
+// thread-safe; callbacks run on the kernel thread and may call the API.
+//
+//   peis::Kernel kernel(argc, argv);
+//   kernel.set("temperature", "21.5");
+//   kernel.onChange(peis::Pattern("light.*"), [](const peis::Tuple& t) {...});
+//   kernel.run();  // until kernel.do-quit = yes, SIGINT or SIGTERM
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "peis/key.h"
+#include "peis/options.h"
+#include "peis/pattern.h"
+#include "peis/tuple.h"
+
+namespace peis {
+
+using TupleCallback = std::function<void(const Tuple&)>;
+using CallbackHandle = std::uint64_t;
+using TimerHandle = std::uint64_t;
+
+// The special tuples every PEIS publishes under "kernel.".
+namespace special {
+inline constexpr const char* kName = "kernel.name";
+inline constexpr const char* kId = "kernel.id";
+inline constexpr const char* kHostname = "kernel.hostname";
+inline constexpr const char* kUser = "kernel.user";
+inline constexpr const char* kVersion = "kernel.version";
+inline constexpr const char* kAllKeys = "kernel.all-keys";
+inline constexpr const char* kSubscribers = "kernel.subscribers";
+inline constexpr const char* kLinks = "kernel.links";
+inline constexpr const char* kDoQuit = "kernel.do-quit";
+}  // namespace special
+
+// "position" -> "mi-position": the meta tuple of a component input.
+std::string metaInputKey(std::string_view input);
+const char* versionString();
+
+class Kernel {
+ public:
+  explicit Kernel(Options options);
+  // Parses the --peis-* flags (removing them from argv). With --help, prints
+  // the flags and exits 0; on a bad flag, prints the error and exits 2.
+  Kernel(int& argc, char** argv);
+  Kernel(const Kernel&) = delete;
+  Kernel& operator=(const Kernel&) = delete;
+  ~Kernel();
+
+  PeisId id() const;
+  std::string name() const;
+  const Options& options() const;
+
+  // --- writes ---------------------------------------------------------------
+  // Sets a tuple in this PEIS's namespace; returns it as stamped.
+  Tuple set(std::string_view key, std::string data, const WriteOptions& options = {});
+  // Sets a tuple of any owner. Another owner must accept the write; until the
+  // network layer links this PEIS to others that fails with Unreachable.
+  Tuple set(PeisId owner, std::string_view key, std::string data,
+            const WriteOptions& options = {});
+  // Appends to an own tuple atomically; with `ifSeqno`, only if the tuple's
+  // seqno is still that number (else Error(Conflict)).
+  Tuple append(std::string_view key, std::string_view data,
+               std::optional<std::uint64_t> ifSeqno = std::nullopt,
+               const WriteOptions& options = {});
+  // Sets an own tuple only if it has no value; true when it wrote.
+  bool setDefault(std::string_view key, std::string data, const WriteOptions& options = {});
+  // Deletes an own tuple; false when it did not exist.
+  bool erase(std::string_view key);
+
+  // --- reads (local, never a network round trip) -----------------------------
+  std::optional<Tuple> get(std::string_view ownKey) const;
+  std::optional<Tuple> get(PeisId owner, std::string_view key) const;
+  // Waits up to `wait` for the tuple to have a value. Not allowed on the
+  // kernel thread (Error(WouldDeadlock)): use a callback there.
+  std::optional<Tuple> get(PeisId owner, std::string_view key,
+                           std::chrono::milliseconds wait) const;
+  // "OWNER.KEY" with OWNER an id or a PEIS name.
+  std::optional<Tuple> get(const FullName& name) const;
+  std::vector<Tuple> find(const Pattern& pattern) const;
+  // An id or a PEIS name -> id; Error(NotFound / AmbiguousName) otherwise.
+  PeisId resolveOwner(std::string_view idOrName) const;
+
+  // --- callbacks ----------------------------------------------------------------
+  CallbackHandle onChange(const Pattern& pattern, TupleCallback fn);
+  CallbackHandle onDelete(const Pattern& pattern, TupleCallback fn);
+  // After this returns the callback is not started again.
+  bool removeCallback(CallbackHandle handle);
+
+  // --- meta tuples ----------------------------------------------------------------
+  // Creates an own meta tuple pointing nowhere, unless it exists.
+  void declareMeta(std::string_view metaKey);
+  // Points own meta tuple `metaKey` at (targetOwner, targetKey).
+  void setMeta(std::string_view metaKey, PeisId targetOwner, std::string_view targetKey);
+  // Points another PEIS's meta tuple (through its owner).
+  void setMeta(PeisId metaOwner, std::string_view metaKey, PeisId targetOwner,
+               std::string_view targetKey);
+  std::optional<TupleRef> resolveMeta(PeisId owner, std::string_view metaKey) const;
+  std::optional<Tuple> getIndirect(PeisId owner, std::string_view metaKey) const;
+  // Writes whatever the meta tuple points to; Error(NotFound) if nothing.
+  Tuple setIndirect(PeisId owner, std::string_view metaKey, std::string data,
+                    const WriteOptions& options = {});
+  // Calls `fn` with every change of whatever the meta tuple points to, and
+  // with the new target's current value when it is re-pointed.
+  CallbackHandle subscribeIndirect(PeisId owner, std::string_view metaKey, TupleCallback fn);
+
+  // --- the kernel thread -------------------------------------------------------------
+  // Runs `fn` on the kernel thread, after the calls already queued.
+  void post(std::function<void()> fn);
+  TimerHandle after(std::chrono::milliseconds delay, std::function<void()> fn);
+  TimerHandle every(std::chrono::milliseconds period, std::function<void()> fn);
+  bool cancelTimer(TimerHandle handle);
+  bool onKernelThread() const;
+
+  // --- life cycle ---------------------------------------------------------------------
+  // Blocks until quit() is called, kernel.do-quit is set to "yes", or the
+  // process gets SIGINT / SIGTERM. Returns the reason as text.
+  std::string run();
+  // run() with a deadline; false if it did not quit in time.
+  bool runFor(std::chrono::milliseconds limit);
+  void quit(std::string reason = "quit() called");
+  bool quitRequested() const;
+  // Callback exceptions caught and logged so far.
+  std::uint64_t callbackErrors() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace peis

@@ -1,0 +1,40 @@
+// Options of one PEIS: the --peis-* command-line flags, or a struct filled
+// in code. Parsing removes the flags it knows from argv and leaves the rest
+// to the program.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "peis/types.h"
+
+namespace peis {
+
+struct Options {
+  std::optional<PeisId> id;        // --peis-id N (picked at random when absent)
+  std::string name;                // --peis-name NAME (default: program name)
+  std::uint16_t port = 0;          // --peis-port P (0: pick a free one)
+  std::vector<std::string> connect;  // --peis-connect HOST:PORT, repeatable
+  std::vector<std::pair<std::string, std::string>> setTuples;  // --peis-set-tuple KEY=VALUE
+  std::string ecology = "default";  // --peis-ecology NAME
+  bool discovery = true;            // --peis-no-discovery turns it off
+  std::size_t maxDataBytes = kDefaultMaxDataBytes;  // --peis-max-data BYTES
+  bool help = false;                // --help or -h was given (left in argv)
+  std::string programName;          // basename of argv[0]
+
+  // Parses and removes the --peis-* flags from argv (argc is updated).
+  // Throws Error(InvalidArgument) naming the flag and what is wrong.
+  static Options fromArgs(int& argc, char** argv);
+  // Checks the values of a struct filled in code; throws like fromArgs.
+  void validate() const;
+  // The help text of the --peis-* flags.
+  static std::string helpText();
+};
+
+// "host:port" or "[v6]:port" -> (host, port); throws Error(InvalidArgument).
+std::pair<std::string, std::uint16_t> parseHostPort(std::string_view text);
+
+}  // namespace peis

@@ -1,0 +1,163 @@
+// Reading and writing functionality descriptors (YAML, via yaml-cpp).
+#include "peis/descriptor.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "peis/error.h"
+#include "peis/key.h"
+
+namespace peis {
+namespace {
+
+[[noreturn]] void fail(std::string_view origin, const YAML::Node& node, const std::string& why) {
+  std::string where(origin);
+  if (node.Mark().line >= 0) where += ":" + std::to_string(node.Mark().line + 1);
+  throw Error(ErrorCode::InvalidConfig, where + ": " + why);
+}
+
+void onlyKeys(std::string_view origin, const YAML::Node& map, const std::set<std::string>& allowed,
+              const std::string& what) {
+  if (!map.IsMap()) fail(origin, map, what + " must be a mapping");
+  for (const auto& item : map) {
+    const auto key = item.first.as<std::string>();
+    if (!allowed.count(key)) {
+      std::string list;
+      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+      fail(origin, item.first, "unknown key '" + key + "' in " + what + " (known: " + list + ")");
+    }
+  }
+}
+
+std::string scalar(std::string_view origin, const YAML::Node& node, const std::string& what) {
+  if (!node || !node.IsScalar()) fail(origin, node, what + " must be a plain value");
+  return node.as<std::string>();
+}
+
+std::string keyPart(std::string_view origin, const YAML::Node& node, const std::string& what) {
+  auto value = scalar(origin, node, what);
+  if (auto problem = keyProblem(value); problem || value.find('.') != std::string::npos) {
+    fail(origin, node, what + " '" + value + "' must be one key part (no '.', '*', '=', spaces)");
+  }
+  return value;
+}
+
+std::vector<Port> ports(std::string_view origin, const YAML::Node& node, const std::string& what) {
+  std::vector<Port> result;
+  if (!node) return result;
+  if (!node.IsSequence()) fail(origin, node, what + " must be a list");
+  for (const auto& item : node) {
+    onlyKeys(origin, item, {"name", "type"}, "an entry of " + what);
+    Port port{keyPart(origin, item["name"], what + " name"), scalar(origin, item["type"], what + " type")};
+    if (port.type.empty() || port.type.find(' ') != std::string::npos) {
+      fail(origin, item["type"], what + " type must be one word");
+    }
+    result.push_back(std::move(port));
+  }
+  return result;
+}
+
+Functionality functionality(std::string_view origin, const YAML::Node& node) {
+  onlyKeys(origin, node, {"name", "description", "inputs", "outputs", "preconditions", "cost"},
+           "a functionality");
+  Functionality f;
+  f.name = keyPart(origin, node["name"], "functionality name");
+  if (node["description"]) f.description = scalar(origin, node["description"], "description");
+  f.inputs = ports(origin, node["inputs"], "inputs");
+  f.outputs = ports(origin, node["outputs"], "outputs");
+  if (const auto pre = node["preconditions"]) {
+    if (!pre.IsSequence()) fail(origin, pre, "preconditions must be a list");
+    for (const auto& item : pre) f.preconditions.push_back(scalar(origin, item, "a precondition"));
+  }
+  if (const auto cost = node["cost"]) {
+    try {
+      f.cost = cost.as<double>();
+    } catch (const YAML::Exception&) {
+      fail(origin, cost, "cost must be a number");
+    }
+    if (!std::isfinite(f.cost) || f.cost < 0) fail(origin, cost, "cost must be finite and >= 0");
+  }
+  return f;
+}
+
+Descriptor parseDescriptor(std::string_view text, std::string_view origin);
+
+}  // namespace
+
+Descriptor Descriptor::fromYaml(std::string_view text, std::string_view origin) {
+  try {
+    return parseDescriptor(text, origin);
+  } catch (const YAML::Exception& e) {
+    throw Error(ErrorCode::InvalidConfig, std::string(origin) + ":" + std::to_string(e.mark.line + 1) +
+                                              ": " + e.msg);
+  }
+}
+
+namespace {
+Descriptor parseDescriptor(std::string_view text, std::string_view origin) {
+  YAML::Node root;
+  try {
+    root = YAML::Load(std::string(text));
+  } catch (const YAML::Exception& e) {
+    throw Error(ErrorCode::InvalidConfig, std::string(origin) + ":" + std::to_string(e.mark.line + 1) +
+                                              ": not valid YAML: " + e.msg);
+  }
+  onlyKeys(origin, root, {"component", "functionalities"}, "the descriptor");
+  Descriptor d;
+  d.component = keyPart(origin, root["component"], "component");
+  const auto list = root["functionalities"];
+  if (list) {
+    if (!list.IsSequence()) fail(origin, list, "functionalities must be a list");
+    std::set<std::string> seen;
+    for (const auto& item : list) {
+      d.functionalities.push_back(functionality(origin, item));
+      if (!seen.insert(d.functionalities.back().name).second) {
+        fail(origin, item, "functionality '" + d.functionalities.back().name + "' is declared twice");
+      }
+    }
+  }
+  return d;
+}
+}  // namespace
+
+Descriptor Descriptor::fromFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error(ErrorCode::InvalidConfig, path + ": cannot open the descriptor file");
+  std::stringstream text;
+  text << in.rdbuf();
+  return fromYaml(text.str(), path);
+}
+
+std::string Descriptor::toYaml() const {
+  YAML::Emitter out;
+  out << YAML::BeginMap << YAML::Key << "component" << YAML::Value << component;
+  out << YAML::Key << "functionalities" << YAML::Value << YAML::BeginSeq;
+  for (const auto& f : functionalities) {
+    out << YAML::BeginMap << YAML::Key << "name" << YAML::Value << f.name;
+    if (!f.description.empty()) out << YAML::Key << "description" << YAML::Value << f.description;
+    for (const auto* list : {&f.inputs, &f.outputs}) {
+      out << YAML::Key << (list == &f.inputs ? "inputs" : "outputs") << YAML::Value << YAML::BeginSeq;
+      for (const auto& p : *list) {
+        out << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << p.name
+            << YAML::Key << "type" << YAML::Value << p.type << YAML::EndMap;
+      }
+      out << YAML::EndSeq;
+    }
+    out << YAML::Key << "preconditions" << YAML::Value << YAML::Flow << f.preconditions;
+    out << YAML::Key << "cost" << YAML::Value << f.cost << YAML::EndMap;
+  }
+  out << YAML::EndSeq << YAML::EndMap;
+  return out.c_str();
+}
+
+std::string formatPorts(const std::vector<Port>& ports) {
+  std::string text;
+  for (const auto& p : ports) text += (text.empty() ? "" : " ") + p.name + ":" + p.type;
+  return text;
+}
+
+}  // namespace peis

@@ -1,0 +1,447 @@
+// TupleSpace implementation; see tuple_space.h for the contract.
+#include "tuple_space.h"
+
+#include <algorithm>
+
+#include "peis/error.h"
+#include "peis/key.h"
+
+namespace peis {
+
+struct TupleSpace::Entry {
+  Pattern pattern;
+  unsigned mask = kOnAny;
+  Callback fn;
+  bool active = true;
+};
+
+// An indirect callback. `queueTarget` is where events are matched (under the
+// owner's serialisation); `deliverTarget`/`lastSeqno` are only touched when
+// deliveries run, in queue order.
+struct TupleSpace::Indirect {
+  TupleRef meta;
+  unsigned mask = kOnAny;
+  Callback fn;
+  bool active = true;
+  bool targeted = false;
+  std::optional<TupleRef> queueTarget;
+  std::optional<TupleRef> deliverTarget;
+  std::uint64_t lastSeqno = 0;
+};
+
+struct TupleSpace::Delivery::Target {
+  std::shared_ptr<Entry> entry;
+  std::shared_ptr<Indirect> indirect;
+  bool retarget = false;
+  std::optional<TupleRef> newTarget;
+};
+
+namespace {
+
+TupleRef refOf(const Tuple& tuple) { return TupleRef{tuple.owner, tuple.key}; }
+
+bool sameRef(const std::optional<TupleRef>& ref, const Tuple& tuple) {
+  return ref && ref->owner == tuple.owner && ref->key == tuple.key;
+}
+
+void checkMimetype(const std::string& mimetype) {
+  if (mimetype.size() > kMaxMimetypeBytes) {
+    throw Error(ErrorCode::InvalidArgument,
+                "mimetype is " + std::to_string(mimetype.size()) + " bytes long; at most " +
+                    std::to_string(kMaxMimetypeBytes) + " are allowed");
+  }
+}
+
+}  // namespace
+
+void TupleSpace::Delivery::run() const {
+  for (const auto& target : targets_) {
+    if (target->entry) {
+      const auto& entry = *target->entry;
+      if (entry.active && tuple_ && (entry.mask & static_cast<unsigned>(kind_))) {
+        entry.fn(kind_, *tuple_);
+      }
+      continue;
+    }
+    auto& indirect = *target->indirect;
+    if (!indirect.active) continue;
+    if (target->retarget) {
+      indirect.deliverTarget = target->newTarget;
+      indirect.lastSeqno = 0;
+      if (tuple_) {
+        indirect.lastSeqno = tuple_->seqno;
+        if (indirect.mask & kOnChange) indirect.fn(EventKind::Changed, *tuple_);
+      }
+      continue;
+    }
+    if (!tuple_ || !sameRef(indirect.deliverTarget, *tuple_)) continue;
+    if (tuple_->seqno <= indirect.lastSeqno) continue;
+    indirect.lastSeqno = tuple_->seqno;
+    if (indirect.mask & static_cast<unsigned>(kind_)) indirect.fn(kind_, *tuple_);
+  }
+}
+
+TupleSpace::TupleSpace(PeisId self, Clock clock, SpaceLimits limits)
+    : self_(self), clock_(std::move(clock)), limits_(limits) {
+  if (!isValidPeisId(self)) {
+    throw Error(ErrorCode::InvalidArgument, "invalid PEIS id " + std::to_string(self));
+  }
+  if (limits_.maxDataBytes > kMaxDataBytes) limits_.maxDataBytes = kMaxDataBytes;
+}
+
+TupleSpace::~TupleSpace() = default;
+
+void TupleSpace::checkData(std::size_t bytes) const {
+  if (bytes > limits_.maxDataBytes) {
+    throw Error(ErrorCode::TooLarge, "data is " + std::to_string(bytes) +
+                                         " bytes; this PEIS accepts at most " +
+                                         std::to_string(limits_.maxDataBytes) +
+                                         " (see --peis-max-data)");
+  }
+}
+
+TuplePtr TupleSpace::live(const TuplePtr& tuple) const {
+  if (!tuple || tuple->isExpiredAt(clock_())) return nullptr;
+  return tuple;
+}
+
+TuplePtr TupleSpace::store(Tuple tuple) {
+  auto ref = refOf(tuple);
+  auto ptr = std::make_shared<const Tuple>(std::move(tuple));
+  auto [it, inserted] = tuples_.insert_or_assign(std::move(ref), ptr);
+  if (inserted && ptr->owner == self_) allKeysDirty_ = true;
+  queueEvent(EventKind::Changed, ptr);
+  return ptr;
+}
+
+TuplePtr TupleSpace::set(std::string_view key, std::string data, const WriteOptions& options,
+                         PeisId creator) {
+  validateKey(key);
+  checkData(data.size());
+  checkMimetype(options.mimetype);
+  const auto now = clock_();
+  auto& seqno = ownSeqnos_[std::string(key)];
+  Tuple tuple;
+  tuple.owner = self_;
+  tuple.creator = creator == 0 ? self_ : creator;
+  tuple.key = std::string(key);
+  tuple.data = std::move(data);
+  tuple.mimetype = options.mimetype;
+  tuple.encoding = options.encoding;
+  tuple.ts_write = now;
+  tuple.ts_user = options.ts_user;
+  tuple.ts_expire = options.ts_expire != kNoTime ? options.ts_expire
+                    : options.ttl.count() > 0    ? now + options.ttl
+                                                 : kNoTime;
+  tuple.seqno = ++seqno;
+  return store(std::move(tuple));
+}
+
+TuplePtr TupleSpace::append(std::string_view key, std::string_view data,
+                            std::optional<std::uint64_t> ifSeqno, const WriteOptions& options,
+                            PeisId creator) {
+  validateKey(key);
+  const auto current = get(self_, key);
+  const std::uint64_t currentSeqno = current ? current->seqno : 0;
+  if (ifSeqno && *ifSeqno != currentSeqno) {
+    throw Error(ErrorCode::Conflict, "append to " + fullName(self_, key) + " expected seqno " +
+                                         std::to_string(*ifSeqno) + " but it is " +
+                                         std::to_string(currentSeqno));
+  }
+  const std::size_t oldSize = current ? current->data.size() : 0;
+  if (data.size() > limits_.maxDataBytes || oldSize > limits_.maxDataBytes - data.size()) {
+    checkData(oldSize + data.size() > oldSize ? oldSize + data.size() : limits_.maxDataBytes + 1);
+  }
+  std::string joined;
+  joined.reserve(oldSize + data.size());
+  if (current) joined = current->data;
+  joined.append(data);
+  WriteOptions merged = options;
+  if (current) {
+    merged.mimetype = current->mimetype;
+    merged.encoding = current->encoding;
+  }
+  return set(key, std::move(joined), merged, creator);
+}
+
+TuplePtr TupleSpace::setDefault(std::string_view key, std::string data,
+                                const WriteOptions& options) {
+  if (auto current = get(self_, key)) return current;
+  return set(key, std::move(data), options);
+}
+
+bool TupleSpace::erase(std::string_view key) {
+  validateKey(key);
+  auto it = tuples_.find(TupleRef{self_, std::string(key)});
+  if (it == tuples_.end()) return false;
+  const auto seqno = ++ownSeqnos_[std::string(key)];
+  remove(it, seqno);
+  return true;
+}
+
+void TupleSpace::remove(std::map<TupleRef, TuplePtr>::iterator it, std::uint64_t seqno) {
+  Tuple last = *it->second;
+  last.seqno = seqno;
+  if (last.owner == self_) {
+    last.ts_write = clock_();
+    allKeysDirty_ = true;
+  }
+  tuples_.erase(it);
+  queueEvent(EventKind::Deleted, std::make_shared<const Tuple>(std::move(last)));
+}
+
+bool TupleSpace::accept(const Tuple& tuple) {
+  if (tuple.owner == self_ || !isValidPeisId(tuple.owner) || keyProblem(tuple.key)) return false;
+  checkData(tuple.data.size());
+  auto it = tuples_.find(refOf(tuple));
+  if (it != tuples_.end() && it->second->seqno >= tuple.seqno) return false;
+  store(tuple);
+  return true;
+}
+
+bool TupleSpace::acceptDelete(PeisId owner, std::string_view key, std::uint64_t seqno) {
+  if (owner == self_) return false;
+  auto it = tuples_.find(TupleRef{owner, std::string(key)});
+  if (it == tuples_.end() || it->second->seqno >= seqno) return false;
+  remove(it, seqno);
+  return true;
+}
+
+TuplePtr TupleSpace::get(PeisId owner, std::string_view key) const {
+  auto it = tuples_.find(TupleRef{owner, std::string(key)});
+  return it == tuples_.end() ? nullptr : live(it->second);
+}
+
+std::vector<TuplePtr> TupleSpace::find(const Pattern& pattern) const {
+  std::vector<TuplePtr> found;
+  auto consider = [&](const TuplePtr& tuple) {
+    if (pattern.matches(*tuple) && live(tuple)) found.push_back(tuple);
+  };
+  const auto& owner = pattern.ownerFilter();
+  if (owner) {
+    for (auto it = tuples_.lower_bound(TupleRef{*owner, ""});
+         it != tuples_.end() && it->first.owner == *owner; ++it) {
+      consider(it->second);
+    }
+  } else {
+    for (const auto& [ref, tuple] : tuples_) consider(tuple);
+  }
+  return found;
+}
+
+std::uint64_t TupleSpace::seqno(PeisId owner, std::string_view key) const {
+  if (owner == self_) {
+    auto it = ownSeqnos_.find(key);
+    return it == ownSeqnos_.end() ? 0 : it->second;
+  }
+  auto tuple = get(owner, key);
+  return tuple ? tuple->seqno : 0;
+}
+
+std::vector<std::string> TupleSpace::keysOf(PeisId owner) const {
+  std::vector<std::string> keys;
+  for (auto it = tuples_.lower_bound(TupleRef{owner, ""});
+       it != tuples_.end() && it->first.owner == owner; ++it) {
+    keys.push_back(it->first.key);
+  }
+  return keys;
+}
+
+std::vector<PeisId> TupleSpace::peisNamed(std::string_view name) const {
+  std::vector<PeisId> ids;
+  for (const auto& [ref, tuple] : tuples_) {
+    if (ref.key == "kernel.name" && tuple->data == name && live(tuple)) ids.push_back(ref.owner);
+  }
+  return ids;
+}
+
+PeisId TupleSpace::resolveOwner(std::string_view owner) const {
+  if (auto id = parsePeisId(owner)) return *id;
+  validateName(owner);
+  const auto ids = peisNamed(owner);
+  if (ids.empty()) {
+    throw Error(ErrorCode::NotFound, "no known PEIS is named '" + std::string(owner) + "'");
+  }
+  if (ids.size() > 1) {
+    std::string list;
+    for (auto id : ids) list += (list.empty() ? "" : ", ") + std::to_string(id);
+    throw Error(ErrorCode::AmbiguousName, "the name '" + std::string(owner) +
+                                              "' is ambiguous: it is carried by PEIS " + list +
+                                              "; use an id instead");
+  }
+  return ids.front();
+}
+
+std::size_t TupleSpace::expire() {
+  const auto now = clock_();
+  std::vector<TupleRef> expired;
+  for (const auto& [ref, tuple] : tuples_) {
+    if (tuple->isExpiredAt(now)) expired.push_back(ref);
+  }
+  for (const auto& ref : expired) {
+    auto it = tuples_.find(ref);
+    const auto seqno = ref.owner == self_ ? ++ownSeqnos_[ref.key] : it->second->seqno;
+    remove(it, seqno);
+  }
+  return expired.size();
+}
+
+Timestamp TupleSpace::nextExpiry() const {
+  Timestamp next = kNoTime;
+  for (const auto& [ref, tuple] : tuples_) {
+    if (tuple->ts_expire != kNoTime && (next == kNoTime || tuple->ts_expire < next)) {
+      next = tuple->ts_expire;
+    }
+  }
+  return next;
+}
+
+void TupleSpace::declareMeta(std::string_view metaKey) {
+  WriteOptions options;
+  options.mimetype = kMetaMimetype;
+  setDefault(metaKey, "", options);
+}
+
+TuplePtr TupleSpace::setMeta(std::string_view metaKey, const TupleRef& target) {
+  if (!isValidPeisId(target.owner)) {
+    throw Error(ErrorCode::InvalidArgument,
+                "meta tuple target owner " + std::to_string(target.owner) + " is not a PEIS id");
+  }
+  validateKey(target.key);
+  WriteOptions options;
+  options.mimetype = kMetaMimetype;
+  return set(metaKey, target.str(), options);
+}
+
+std::optional<TupleRef> TupleSpace::resolveMeta(PeisId owner, std::string_view metaKey) const {
+  const auto meta = get(owner, metaKey);
+  if (!meta || meta->data.empty()) return std::nullopt;
+  try {
+    const auto name = parseFullName(meta->data);
+    return TupleRef{resolveOwner(name.owner), name.key};
+  } catch (const Error&) {
+    return std::nullopt;  // points at something malformed or unknown: unresolved
+  }
+}
+
+TuplePtr TupleSpace::getIndirect(PeisId owner, std::string_view metaKey) const {
+  const auto target = resolveMeta(owner, metaKey);
+  return target ? get(target->owner, target->key) : nullptr;
+}
+
+CallbackId TupleSpace::addCallback(const Pattern& pattern, unsigned mask, Callback fn) {
+  const auto id = nextCallbackId_++;
+  callbacks_.emplace(id, std::make_shared<Entry>(Entry{pattern, mask, std::move(fn)}));
+  return id;
+}
+
+CallbackId TupleSpace::addIndirectCallback(PeisId metaOwner, std::string_view metaKey,
+                                           unsigned mask, Callback fn) {
+  validateKey(metaKey);
+  const auto id = nextCallbackId_++;
+  auto indirect = std::make_shared<Indirect>();
+  indirect->meta = TupleRef{metaOwner, std::string(metaKey)};
+  indirect->mask = mask;
+  indirect->fn = std::move(fn);
+  indirects_.emplace(id, indirect);
+  retarget(indirect);
+  return id;
+}
+
+bool TupleSpace::removeCallback(CallbackId id) {
+  if (auto it = callbacks_.find(id); it != callbacks_.end()) {
+    it->second->active = false;
+    callbacks_.erase(it);
+    return true;
+  }
+  if (auto it = indirects_.find(id); it != indirects_.end()) {
+    it->second->active = false;
+    indirects_.erase(it);
+    return true;
+  }
+  return false;
+}
+
+std::optional<TupleRef> TupleSpace::indirectTarget(CallbackId id) const {
+  auto it = indirects_.find(id);
+  return it == indirects_.end() ? std::nullopt : it->second->queueTarget;
+}
+
+void TupleSpace::retarget(const std::shared_ptr<Indirect>& indirect) {
+  auto target = resolveMeta(indirect->meta.owner, indirect->meta.key);
+  if (indirect->targeted && target == indirect->queueTarget) return;
+  indirect->targeted = true;
+  indirect->queueTarget = target;
+  Delivery delivery;
+  delivery.kind_ = EventKind::Changed;
+  delivery.tuple_ = target ? get(target->owner, target->key) : nullptr;
+  auto t = std::make_shared<Delivery::Target>();
+  t->indirect = indirect;
+  t->retarget = true;
+  t->newTarget = target;
+  delivery.targets_.push_back(std::move(t));
+  queue_.push_back(std::move(delivery));
+}
+
+void TupleSpace::queueEvent(EventKind kind, const TuplePtr& tuple) {
+  Delivery delivery;
+  delivery.kind_ = kind;
+  delivery.tuple_ = tuple;
+  for (const auto& [id, entry] : callbacks_) {
+    if ((entry->mask & static_cast<unsigned>(kind)) && entry->pattern.matches(*tuple)) {
+      auto target = std::make_shared<Delivery::Target>();
+      target->entry = entry;
+      delivery.targets_.push_back(std::move(target));
+    }
+  }
+  std::vector<std::shared_ptr<Indirect>> metaWatchers;
+  for (const auto& [id, indirect] : indirects_) {
+    if (sameRef(indirect->queueTarget, *tuple)) {
+      auto target = std::make_shared<Delivery::Target>();
+      target->indirect = indirect;
+      delivery.targets_.push_back(std::move(target));
+    }
+    if (indirect->meta.owner == tuple->owner && indirect->meta.key == tuple->key) {
+      metaWatchers.push_back(indirect);
+    }
+  }
+  if (!delivery.targets_.empty()) queue_.push_back(std::move(delivery));
+  for (const auto& indirect : metaWatchers) retarget(indirect);
+}
+
+std::optional<TupleSpace::Delivery> TupleSpace::nextDelivery() {
+  if (queue_.empty()) return std::nullopt;
+  auto delivery = std::move(queue_.front());
+  queue_.pop_front();
+  return delivery;
+}
+
+std::size_t TupleSpace::dispatch() {
+  if (dispatching_) return 0;
+  dispatching_ = true;
+  struct Reset {
+    bool& flag;
+    ~Reset() { flag = false; }
+  } reset{dispatching_};
+  std::size_t count = 0;
+  while (auto delivery = nextDelivery()) {
+    delivery->run();
+    ++count;
+  }
+  return count;
+}
+
+void TupleSpace::flushAllKeys() {
+  if (!allKeysDirty_) return;
+  auto keys = keysOf(self_);
+  if (!std::binary_search(keys.begin(), keys.end(), std::string("kernel.all-keys"))) {
+    keys.insert(std::lower_bound(keys.begin(), keys.end(), std::string("kernel.all-keys")),
+                "kernel.all-keys");
+  }
+  std::string list;
+  for (const auto& key : keys) list += (list.empty() ? "" : " ") + key;
+  set("kernel.all-keys", std::move(list));
+  allKeysDirty_ = false;
+}
+
+}  // namespace peis

@@ -1,0 +1,164 @@
+// TupleSpace: the tuples one PEIS holds (its own namespace and its cache of
+// other owners' tuples), with stamping, expiry, append, callbacks and meta
+// tuple resolution. No sockets, no threads, the clock is injected: every
+// behaviour is deterministic and testable alone. Not thread-safe; the Kernel
+// serialises access.
+//
+// Callbacks are matched when an event happens and run later, in order, by
+// dispatch() (or by the Kernel via nextDelivery()). A callback may therefore
+// call back into the space without re-entering a running callback.
+#pragma once
+
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "peis/pattern.h"
+#include "peis/tuple.h"
+
+namespace peis {
+
+using Clock = std::function<Timestamp()>;
+using TuplePtr = std::shared_ptr<const Tuple>;
+
+enum class EventKind : std::uint8_t { Changed = 1, Deleted = 2 };
+enum EventMask : unsigned { kOnChange = 1, kOnDelete = 2, kOnAny = 3 };
+
+using Callback = std::function<void(EventKind, const Tuple&)>;
+using CallbackId = std::uint64_t;
+
+struct SpaceLimits {
+  std::size_t maxDataBytes = kDefaultMaxDataBytes;
+};
+
+class TupleSpace {
+ public:
+  TupleSpace(PeisId self, Clock clock, SpaceLimits limits = {});
+  TupleSpace(const TupleSpace&) = delete;
+  TupleSpace& operator=(const TupleSpace&) = delete;
+  ~TupleSpace();
+
+  PeisId self() const { return self_; }
+  const SpaceLimits& limits() const { return limits_; }
+
+  // --- writes the owner accepts (owner = self) -----------------------------
+  // Stamps ts_write and the next seqno, stores, queues change events.
+  // `creator` 0 means self. Throws Error(InvalidKey / TooLarge).
+  TuplePtr set(std::string_view key, std::string data,
+               const WriteOptions& options = {}, PeisId creator = 0);
+  // Appends `data` to the current value atomically; creates the tuple when
+  // absent. With `ifSeqno`, fails with Error(Conflict) unless the current
+  // seqno (0 when absent) is still that number.
+  TuplePtr append(std::string_view key, std::string_view data,
+                  std::optional<std::uint64_t> ifSeqno = std::nullopt,
+                  const WriteOptions& options = {}, PeisId creator = 0);
+  // Writes only when the key has no value; returns the value now held.
+  TuplePtr setDefault(std::string_view key, std::string data,
+                      const WriteOptions& options = {});
+  // Deletes an own tuple; false when it was absent.
+  bool erase(std::string_view key);
+
+  // --- tuples of other owners, already stamped by them ---------------------
+  // Stores `tuple` unless the cache holds the same or a newer seqno for it;
+  // returns whether it was stored.
+  bool accept(const Tuple& tuple);
+  // Removes a cached tuple deleted by its owner at `seqno`.
+  bool acceptDelete(PeisId owner, std::string_view key, std::uint64_t seqno);
+
+  // --- reads ----------------------------------------------------------------
+  TuplePtr get(PeisId owner, std::string_view key) const;
+  std::vector<TuplePtr> find(const Pattern& pattern) const;
+  // Current seqno of a key (0 when never written).
+  std::uint64_t seqno(PeisId owner, std::string_view key) const;
+  std::vector<std::string> keysOf(PeisId owner) const;
+  std::size_t size() const { return tuples_.size(); }
+  // Ids of the PEIS whose cached `kernel.name` equals `name`.
+  std::vector<PeisId> peisNamed(std::string_view name) const;
+  // Resolves an owner written as an id or a name. Throws
+  // Error(InvalidName / AmbiguousName listing the candidates / NotFound).
+  PeisId resolveOwner(std::string_view owner) const;
+
+  // --- expiry ---------------------------------------------------------------
+  // Removes every tuple expired at clock(); queues delete events.
+  std::size_t expire();
+  // Earliest ts_expire among held tuples, kNoTime when none.
+  Timestamp nextExpiry() const;
+
+  // --- meta tuples ----------------------------------------------------------
+  // Creates an own meta tuple pointing nowhere, unless it exists.
+  void declareMeta(std::string_view metaKey);
+  // Points an own meta tuple at (owner, key).
+  TuplePtr setMeta(std::string_view metaKey, const TupleRef& target);
+  // What a meta tuple points to, when it exists and points somewhere.
+  std::optional<TupleRef> resolveMeta(PeisId owner,
+                                      std::string_view metaKey) const;
+  TuplePtr getIndirect(PeisId owner, std::string_view metaKey) const;
+
+  // --- callbacks --------------------------------------------------------------
+  CallbackId addCallback(const Pattern& pattern, unsigned mask, Callback fn);
+  // Follows meta tuple (owner, metaKey): calls `fn` for changes of whatever
+  // it points to, and, when it is re-pointed, at once with the new target's
+  // current value. Never delivers a target's seqno twice or out of order.
+  CallbackId addIndirectCallback(PeisId metaOwner, std::string_view metaKey,
+                                 unsigned mask, Callback fn);
+  // Where an indirect callback points now (as of the last event).
+  std::optional<TupleRef> indirectTarget(CallbackId id) const;
+  // After this returns the callback is not started again.
+  bool removeCallback(CallbackId id);
+
+  // One queued event with the callbacks it matched when it happened.
+  class Delivery {
+   public:
+    void run() const;
+    EventKind kind() const { return kind_; }
+    const TuplePtr& tuple() const { return tuple_; }
+
+   private:
+    friend class TupleSpace;
+    struct Target;
+    EventKind kind_ = EventKind::Changed;
+    TuplePtr tuple_;
+    std::vector<std::shared_ptr<Target>> targets_;
+  };
+  std::optional<Delivery> nextDelivery();
+  bool hasPendingDeliveries() const { return !queue_.empty(); }
+  // Runs queued deliveries until none is left; a nested call returns 0.
+  std::size_t dispatch();
+
+  // --- kernel.all-keys --------------------------------------------------------
+  // The set of own keys changed since the last flush.
+  bool allKeysDirty() const { return allKeysDirty_; }
+  // Rewrites `kernel.all-keys` when the set of own keys changed.
+  void flushAllKeys();
+
+ private:
+  struct Entry;
+  struct Indirect;
+  TuplePtr store(Tuple tuple);
+  void remove(std::map<TupleRef, TuplePtr>::iterator it, std::uint64_t seqno);
+  void queueEvent(EventKind kind, const TuplePtr& tuple);
+  void retarget(const std::shared_ptr<Indirect>& indirect);
+  void checkData(std::size_t bytes) const;
+  TuplePtr live(const TuplePtr& tuple) const;
+
+  PeisId self_;
+  Clock clock_;
+  SpaceLimits limits_;
+  std::map<TupleRef, TuplePtr> tuples_;
+  // Last seqno ever used per own key, so a re-created key keeps increasing.
+  std::map<std::string, std::uint64_t, std::less<>> ownSeqnos_;
+  std::map<CallbackId, std::shared_ptr<Entry>> callbacks_;
+  std::map<CallbackId, std::shared_ptr<Indirect>> indirects_;
+  std::deque<Delivery> queue_;
+  CallbackId nextCallbackId_ = 1;
+  bool dispatching_ = false;
+  bool allKeysDirty_ = true;
+};
+
+}  // namespace peis
