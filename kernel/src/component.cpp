@@ -21,10 +21,14 @@ std::string joined(const std::vector<std::string>& items) {
 
 const char* toString(ComponentStatus status) {
   switch (status) {
-    case ComponentStatus::Initializing: return "initializing";
-    case ComponentStatus::Waiting: return "waiting";
-    case ComponentStatus::Running: return "running";
-    case ComponentStatus::Error: return "error";
+    case ComponentStatus::Initializing:
+      return "initializing";
+    case ComponentStatus::Waiting:
+      return "waiting";
+    case ComponentStatus::Running:
+      return "running";
+    case ComponentStatus::Error:
+      return "error";
   }
   return "error";
 }
@@ -151,16 +155,17 @@ void Component::input(const std::string& name, std::chrono::milliseconds freshne
   }
   kernel_.declareMeta(metaKey);
   // Re-pointing forgets the old producer's value before the new one arrives.
-  auto repointed = kernel_.onChange(Pattern::exact(kernel_.id(), metaKey), [state, name](const Tuple&) {
-    std::lock_guard lock(state->mu);
-    auto& input = state->inputs[name];
-    const auto target = state->kernel->resolveMeta(state->kernel->id(), metaInputKey(name));
-    if (input.value && (!target || target->owner != input.value->owner ||
-                        target->key != input.value->key)) {
-      input.value.reset();
-      state->publish();
-    }
-  });
+  auto repointed =
+      kernel_.onChange(Pattern::exact(kernel_.id(), metaKey), [state, name](const Tuple&) {
+        std::lock_guard lock(state->mu);
+        auto& input = state->inputs[name];
+        const auto target = state->kernel->resolveMeta(state->kernel->id(), metaInputKey(name));
+        if (input.value &&
+            (!target || target->owner != input.value->owner || target->key != input.value->key)) {
+          input.value.reset();
+          state->publish();
+        }
+      });
   auto values = kernel_.subscribeIndirect(kernel_.id(), metaKey, [state, name](const Tuple& t) {
     TupleCallback onValue;
     {
@@ -207,21 +212,22 @@ void Component::actuator(const std::string& name, Apply apply, std::string initi
   kernel_.set(name + ".currState", std::move(initialState));
   kernel_.set(name + ".status", "ok");
   auto state = state_;
-  auto handle = kernel_.onChange(Pattern::exact(kernel_.id(), reqKey), [state, name](const Tuple& t) {
-    Apply fn;
-    {
-      std::lock_guard lock(state->mu);
-      fn = state->actuators[name];
-    }
-    state->kernel->set(name + ".status", "busy");
-    try {
-      auto reached = fn(t.data);
-      state->kernel->set(name + ".currState", std::move(reached));
-      state->kernel->set(name + ".status", "ok");
-    } catch (const std::exception& e) {
-      state->kernel->set(name + ".status", std::string("error: ") + e.what());
-    }
-  });
+  auto handle =
+      kernel_.onChange(Pattern::exact(kernel_.id(), reqKey), [state, name](const Tuple& t) {
+        Apply fn;
+        {
+          std::lock_guard lock(state->mu);
+          fn = state->actuators[name];
+        }
+        state->kernel->set(name + ".status", "busy");
+        try {
+          auto reached = fn(t.data);
+          state->kernel->set(name + ".currState", std::move(reached));
+          state->kernel->set(name + ".status", "ok");
+        } catch (const std::exception& e) {
+          state->kernel->set(name + ".status", std::string("error: ") + e.what());
+        }
+      });
   std::lock_guard lock(state_->mu);
   state_->callbacks.push_back(handle);
   // A request that was there before the actuator existed (--peis-set-tuple).

@@ -52,7 +52,8 @@ std::vector<Port> ports(std::string_view origin, const YAML::Node& node, const s
   if (!node.IsSequence()) fail(origin, node, what + " must be a list");
   for (const auto& item : node) {
     onlyKeys(origin, item, {"name", "type"}, "an entry of " + what);
-    Port port{keyPart(origin, item["name"], what + " name"), scalar(origin, item["type"], what + " type")};
+    Port port{keyPart(origin, item["name"], what + " name"),
+              scalar(origin, item["type"], what + " type")};
     if (port.type.empty() || port.type.find(' ') != std::string::npos) {
       fail(origin, item["type"], what + " type must be one word");
     }
@@ -92,8 +93,8 @@ Descriptor Descriptor::fromYaml(std::string_view text, std::string_view origin) 
   try {
     return parseDescriptor(text, origin);
   } catch (const YAML::Exception& e) {
-    throw Error(ErrorCode::InvalidConfig, std::string(origin) + ":" + std::to_string(e.mark.line + 1) +
-                                              ": " + e.msg);
+    throw Error(ErrorCode::InvalidConfig,
+                std::string(origin) + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
   }
 }
 
@@ -103,8 +104,9 @@ Descriptor parseDescriptor(std::string_view text, std::string_view origin) {
   try {
     root = YAML::Load(std::string(text));
   } catch (const YAML::Exception& e) {
-    throw Error(ErrorCode::InvalidConfig, std::string(origin) + ":" + std::to_string(e.mark.line + 1) +
-                                              ": not valid YAML: " + e.msg);
+    throw Error(
+        ErrorCode::InvalidConfig,
+        std::string(origin) + ":" + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg);
   }
   onlyKeys(origin, root, {"component", "functionalities"}, "the descriptor");
   Descriptor d;
@@ -116,7 +118,8 @@ Descriptor parseDescriptor(std::string_view text, std::string_view origin) {
     for (const auto& item : list) {
       d.functionalities.push_back(functionality(origin, item));
       if (!seen.insert(d.functionalities.back().name).second) {
-        fail(origin, item, "functionality '" + d.functionalities.back().name + "' is declared twice");
+        fail(origin, item,
+             "functionality '" + d.functionalities.back().name + "' is declared twice");
       }
     }
   }
@@ -140,7 +143,8 @@ std::string Descriptor::toYaml() const {
     out << YAML::BeginMap << YAML::Key << "name" << YAML::Value << f.name;
     if (!f.description.empty()) out << YAML::Key << "description" << YAML::Value << f.description;
     for (const auto* list : {&f.inputs, &f.outputs}) {
-      out << YAML::Key << (list == &f.inputs ? "inputs" : "outputs") << YAML::Value << YAML::BeginSeq;
+      out << YAML::Key << (list == &f.inputs ? "inputs" : "outputs") << YAML::Value
+          << YAML::BeginSeq;
       for (const auto& p : *list) {
         out << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << p.name
             << YAML::Key << "type" << YAML::Value << p.type << YAML::EndMap;

@@ -228,11 +228,12 @@ struct Kernel::Impl {
       s.set(special::kSubscribers, "");
       s.set(special::kLinks, "");
       s.set(special::kDoQuit, "no");
-      s.addCallback(Pattern::exact(id, special::kDoQuit), kOnChange, [this](EventKind, const Tuple& t) {
-        if (t.data == "yes") {
-          requestQuit("kernel.do-quit set to yes by PEIS " + std::to_string(t.creator));
-        }
-      });
+      s.addCallback(
+          Pattern::exact(id, special::kDoQuit), kOnChange, [this](EventKind, const Tuple& t) {
+            if (t.data == "yes") {
+              requestQuit("kernel.do-quit set to yes by PEIS " + std::to_string(t.creator));
+            }
+          });
       for (const auto& [key, value] : options.setTuples) s.set(key, value);
       s.flushAllKeys();
       return 0;
@@ -372,13 +373,15 @@ PeisId Kernel::resolveOwner(std::string_view idOrName) const {
 
 CallbackHandle Kernel::onChange(const Pattern& pattern, TupleCallback fn) {
   return impl_->mutate([&](TupleSpace& s) {
-    return s.addCallback(pattern, kOnChange, [fn = std::move(fn)](EventKind, const Tuple& t) { fn(t); });
+    return s.addCallback(pattern, kOnChange,
+                         [fn = std::move(fn)](EventKind, const Tuple& t) { fn(t); });
   });
 }
 
 CallbackHandle Kernel::onDelete(const Pattern& pattern, TupleCallback fn) {
   return impl_->mutate([&](TupleSpace& s) {
-    return s.addCallback(pattern, kOnDelete, [fn = std::move(fn)](EventKind, const Tuple& t) { fn(t); });
+    return s.addCallback(pattern, kOnDelete,
+                         [fn = std::move(fn)](EventKind, const Tuple& t) { fn(t); });
   });
 }
 

@@ -21,8 +21,7 @@ std::optional<std::string> partProblem(std::string_view part, std::size_t index)
     if (!isKeyChar(c)) {
       const auto u = static_cast<unsigned>(static_cast<unsigned char>(c));
       return "part " + std::to_string(index + 1) + " has the character " +
-             (u >= 0x21 && u <= 0x7e ? "'" + std::string(1, c) + "'"
-                                     : "0x" + std::to_string(u)) +
+             (u >= 0x21 && u <= 0x7e ? "'" + std::string(1, c) + "'" : "0x" + std::to_string(u)) +
              ", which keys may not contain";
     }
   }
@@ -70,9 +69,8 @@ std::optional<std::string> keyProblem(std::string_view key) {
 
 void validateKey(std::string_view key) {
   if (auto problem = keyProblem(key)) {
-    throw Error(ErrorCode::InvalidKey,
-                "invalid key '" + std::string(key.substr(0, 64)) +
-                    (key.size() > 64 ? "...'" : "'") + ": " + *problem);
+    throw Error(ErrorCode::InvalidKey, "invalid key '" + std::string(key.substr(0, 64)) +
+                                           (key.size() > 64 ? "...'" : "'") + ": " + *problem);
   }
 }
 
@@ -139,9 +137,9 @@ FullName parseFullName(std::string_view text) {
     bool allDigits = true;
     for (char c : name.owner) allDigits = allDigits && c >= '0' && c <= '9';
     if (allDigits) {
-      throw Error(ErrorCode::InvalidName,
-                  "invalid full name '" + std::string(text.substr(0, 64)) + "': owner id " +
-                      name.owner + " is out of range 1.." + std::to_string(kMaxPeisId));
+      throw Error(ErrorCode::InvalidName, "invalid full name '" + std::string(text.substr(0, 64)) +
+                                              "': owner id " + name.owner + " is out of range 1.." +
+                                              std::to_string(kMaxPeisId));
     }
     validateName(name.owner);
   }

@@ -21,10 +21,14 @@ Level configuredLevel() {
 
 const char* name(Level level) {
   switch (level) {
-    case Level::Error: return "error";
-    case Level::Warn: return "warn";
-    case Level::Info: return "info";
-    case Level::Debug: return "debug";
+    case Level::Error:
+      return "error";
+    case Level::Warn:
+      return "warn";
+    case Level::Info:
+      return "info";
+    case Level::Debug:
+      return "debug";
   }
   return "?";
 }

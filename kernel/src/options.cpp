@@ -26,7 +26,8 @@ std::uint64_t parseUnsigned(const std::string& flag, std::string_view text, std:
 
 void checkEcology(std::string_view name) {
   if (name.empty() || name.size() > kMaxNameBytes) {
-    bad("--peis-ecology", "the ecology name must be 1.." + std::to_string(kMaxNameBytes) + " bytes");
+    bad("--peis-ecology",
+        "the ecology name must be 1.." + std::to_string(kMaxNameBytes) + " bytes");
   }
   for (char c : name) {
     if (static_cast<unsigned char>(c) <= 0x20 || static_cast<unsigned char>(c) >= 0x7f) {
@@ -45,7 +46,8 @@ std::pair<std::string, std::uint16_t> parseHostPort(std::string_view text) {
   auto host = text.substr(0, colon);
   if (host.front() == '[' && host.back() == ']') host = host.substr(1, host.size() - 2);
   const auto port = parseUnsigned("--peis-connect", text.substr(colon + 1), 65535);
-  if (port == 0 || host.empty()) bad("--peis-connect", "'" + std::string(text) + "' is not HOST:PORT");
+  if (port == 0 || host.empty())
+    bad("--peis-connect", "'" + std::string(text) + "' is not HOST:PORT");
   return {std::string(host), static_cast<std::uint16_t>(port)};
 }
 

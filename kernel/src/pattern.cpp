@@ -33,7 +33,8 @@ Pattern Pattern::parse(std::string_view text) {
   if (owner == "*") return Pattern(text.substr(dot + 1));
   const auto id = parsePeisId(owner);
   if (!id) {
-    throw Error(ErrorCode::InvalidName, "invalid pattern owner '" + std::string(owner.substr(0, 64)) +
+    throw Error(ErrorCode::InvalidName, "invalid pattern owner '" +
+                                            std::string(owner.substr(0, 64)) +
                                             "': expected a PEIS id or *");
   }
   return Pattern(text.substr(dot + 1), *id);
@@ -81,8 +82,7 @@ bool Pattern::matchesOwnerAndKey(PeisId owner, std::string_view key) const {
 }
 
 bool Pattern::matches(const Tuple& tuple) const {
-  return matchesOwnerAndKey(tuple.owner, tuple.key) &&
-         (!creator_ || *creator_ == tuple.creator) &&
+  return matchesOwnerAndKey(tuple.owner, tuple.key) && (!creator_ || *creator_ == tuple.creator) &&
          (!mimetype_ || *mimetype_ == tuple.mimetype) && (!data_ || *data_ == tuple.data);
 }
 

@@ -46,9 +46,9 @@ bool sameRef(const std::optional<TupleRef>& ref, const Tuple& tuple) {
 
 void checkMimetype(const std::string& mimetype) {
   if (mimetype.size() > kMaxMimetypeBytes) {
-    throw Error(ErrorCode::InvalidArgument,
-                "mimetype is " + std::to_string(mimetype.size()) + " bytes long; at most " +
-                    std::to_string(kMaxMimetypeBytes) + " are allowed");
+    throw Error(ErrorCode::InvalidArgument, "mimetype is " + std::to_string(mimetype.size()) +
+                                                " bytes long; at most " +
+                                                std::to_string(kMaxMimetypeBytes) + " are allowed");
   }
 }
 
@@ -93,10 +93,9 @@ TupleSpace::~TupleSpace() = default;
 
 void TupleSpace::checkData(std::size_t bytes) const {
   if (bytes > limits_.maxDataBytes) {
-    throw Error(ErrorCode::TooLarge, "data is " + std::to_string(bytes) +
-                                         " bytes; this PEIS accepts at most " +
-                                         std::to_string(limits_.maxDataBytes) +
-                                         " (see --peis-max-data)");
+    throw Error(ErrorCode::TooLarge,
+                "data is " + std::to_string(bytes) + " bytes; this PEIS accepts at most " +
+                    std::to_string(limits_.maxDataBytes) + " (see --peis-max-data)");
   }
 }
 

@@ -50,8 +50,8 @@ class TupleSpace {
   // --- writes the owner accepts (owner = self) -----------------------------
   // Stamps ts_write and the next seqno, stores, queues change events.
   // `creator` 0 means self. Throws Error(InvalidKey / TooLarge).
-  TuplePtr set(std::string_view key, std::string data,
-               const WriteOptions& options = {}, PeisId creator = 0);
+  TuplePtr set(std::string_view key, std::string data, const WriteOptions& options = {},
+               PeisId creator = 0);
   // Appends `data` to the current value atomically; creates the tuple when
   // absent. With `ifSeqno`, fails with Error(Conflict) unless the current
   // seqno (0 when absent) is still that number.
@@ -59,8 +59,7 @@ class TupleSpace {
                   std::optional<std::uint64_t> ifSeqno = std::nullopt,
                   const WriteOptions& options = {}, PeisId creator = 0);
   // Writes only when the key has no value; returns the value now held.
-  TuplePtr setDefault(std::string_view key, std::string data,
-                      const WriteOptions& options = {});
+  TuplePtr setDefault(std::string_view key, std::string data, const WriteOptions& options = {});
   // Deletes an own tuple; false when it was absent.
   bool erase(std::string_view key);
 
@@ -96,8 +95,7 @@ class TupleSpace {
   // Points an own meta tuple at (owner, key).
   TuplePtr setMeta(std::string_view metaKey, const TupleRef& target);
   // What a meta tuple points to, when it exists and points somewhere.
-  std::optional<TupleRef> resolveMeta(PeisId owner,
-                                      std::string_view metaKey) const;
+  std::optional<TupleRef> resolveMeta(PeisId owner, std::string_view metaKey) const;
   TuplePtr getIndirect(PeisId owner, std::string_view metaKey) const;
 
   // --- callbacks --------------------------------------------------------------
@@ -105,8 +103,8 @@ class TupleSpace {
   // Follows meta tuple (owner, metaKey): calls `fn` for changes of whatever
   // it points to, and, when it is re-pointed, at once with the new target's
   // current value. Never delivers a target's seqno twice or out of order.
-  CallbackId addIndirectCallback(PeisId metaOwner, std::string_view metaKey,
-                                 unsigned mask, Callback fn);
+  CallbackId addIndirectCallback(PeisId metaOwner, std::string_view metaKey, unsigned mask,
+                                 Callback fn);
   // Where an indirect callback points now (as of the last event).
   std::optional<TupleRef> indirectTarget(CallbackId id) const;
   // After this returns the callback is not started again.

@@ -47,8 +47,7 @@ class Component {
   using Apply = std::function<std::string(const std::string& requested)>;
   void actuator(const std::string& name, Apply apply, std::string initialState = "");
   // For actuators that finish later: report the state reached.
-  void setActuatorState(const std::string& name, std::string currState,
-                        std::string status = "ok");
+  void setActuatorState(const std::string& name, std::string currState, std::string status = "ok");
 
   // Initialisation is over: status follows the inputs from now on
   // (running when all are present and fresh, waiting otherwise).

@@ -64,8 +64,7 @@ class Kernel {
   Tuple set(std::string_view key, std::string data, const WriteOptions& options = {});
   // Sets a tuple of any owner. Another owner must accept the write; until the
   // network layer links this PEIS to others that fails with Unreachable.
-  Tuple set(PeisId owner, std::string_view key, std::string data,
-            const WriteOptions& options = {});
+  Tuple set(PeisId owner, std::string_view key, std::string data, const WriteOptions& options = {});
   // Appends to an own tuple atomically; with `ifSeqno`, only if the tuple's
   // seqno is still that number (else Error(Conflict)).
   Tuple append(std::string_view key, std::string_view data,

@@ -14,16 +14,16 @@
 namespace peis {
 
 struct Options {
-  std::optional<PeisId> id;        // --peis-id N (picked at random when absent)
-  std::string name;                // --peis-name NAME (default: program name)
-  std::uint16_t port = 0;          // --peis-port P (0: pick a free one)
+  std::optional<PeisId> id;          // --peis-id N (picked at random when absent)
+  std::string name;                  // --peis-name NAME (default: program name)
+  std::uint16_t port = 0;            // --peis-port P (0: pick a free one)
   std::vector<std::string> connect;  // --peis-connect HOST:PORT, repeatable
   std::vector<std::pair<std::string, std::string>> setTuples;  // --peis-set-tuple KEY=VALUE
-  std::string ecology = "default";  // --peis-ecology NAME
-  bool discovery = true;            // --peis-no-discovery turns it off
-  std::size_t maxDataBytes = kDefaultMaxDataBytes;  // --peis-max-data BYTES
-  bool help = false;                // --help or -h was given (left in argv)
-  std::string programName;          // basename of argv[0]
+  std::string ecology = "default";                             // --peis-ecology NAME
+  bool discovery = true;                                       // --peis-no-discovery turns it off
+  std::size_t maxDataBytes = kDefaultMaxDataBytes;             // --peis-max-data BYTES
+  bool help = false;        // --help or -h was given (left in argv)
+  std::string programName;  // basename of argv[0]
 
   // Parses and removes the --peis-* flags from argv (argc is updated).
   // Throws Error(InvalidArgument) naming the flag and what is wrong.

@@ -18,8 +18,7 @@ class Pattern {
   Pattern();
   // `keyPattern` is dotted; a part `*` matches exactly one part and a last
   // part `**` matches one or more remaining parts. Throws Error(InvalidKey).
-  explicit Pattern(std::string_view keyPattern,
-                   std::optional<PeisId> owner = std::nullopt);
+  explicit Pattern(std::string_view keyPattern, std::optional<PeisId> owner = std::nullopt);
   // "OWNER.KEYPATTERN" where OWNER is an id or `*`: "*.position.**".
   static Pattern parse(std::string_view text);
   static Pattern exact(PeisId owner, std::string_view key);

@@ -25,9 +25,7 @@ struct Tuple {
   std::uint64_t seqno = 0;        // owner-assigned, increasing per key
 
   std::string fullName() const;
-  bool isExpiredAt(Timestamp now) const {
-    return ts_expire != kNoTime && ts_expire <= now;
-  }
+  bool isExpiredAt(Timestamp now) const { return ts_expire != kNoTime && ts_expire <= now; }
   bool operator==(const Tuple&) const = default;
 };
 

@@ -21,8 +21,7 @@ inline constexpr bool isValidPeisId(std::int64_t id) {
 using Timestamp = std::chrono::sys_time<std::chrono::microseconds>;
 inline constexpr Timestamp kNoTime{};
 inline Timestamp systemNow() {
-  return std::chrono::time_point_cast<std::chrono::microseconds>(
-      std::chrono::system_clock::now());
+  return std::chrono::time_point_cast<std::chrono::microseconds>(std::chrono::system_clock::now());
 }
 
 // How the data bytes of a tuple are meant to be read.

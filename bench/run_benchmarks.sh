@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Runs every benchmark pinned to one core (taskset -c 0) and unpinned, and
+# writes the tables into docs/performance.md between the RESULTS markers.
+set -euo pipefail
+build=${1:-build}
+cd "$(dirname "$0")/.."
+export PEIS_LOG=quiet
+out=$(mktemp)
+{
+  echo "Measured $(date -u '+%Y-%m-%d %H:%M UTC') on $(nproc) cores ($(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ //')), $(uname -sr), build type RelWithDebInfo."
+  echo
+  echo "### One PEIS, no network — pinned (taskset -c 0)"
+  echo
+  taskset -c 0 "$build/bench/peis-bench-local"
+  echo
+  echo "### One PEIS, no network — unpinned"
+  echo
+  "$build/bench/peis-bench-local"
+} >"$out"
+cat "$out"
+python3 - "$out" <<'PY'
+import re, sys
+results = open(sys.argv[1]).read()
+path = "docs/performance.md"
+text = open(path).read()
+begin, end = "<!-- RESULTS:BEGIN -->", "<!-- RESULTS:END -->"
+if begin not in text or end not in text:
+    sys.exit("docs/performance.md lacks the RESULTS markers")
+head, rest = text.split(begin, 1)
+_, tail = rest.split(end, 1)
+open(path, "w").write(head + begin + "\n" + results + end + tail)
+print("updated", path)
+PY
