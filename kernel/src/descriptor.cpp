@@ -16,7 +16,9 @@ namespace {
 
 [[noreturn]] void fail(std::string_view origin, const YAML::Node& node, const std::string& why) {
   std::string where(origin);
-  if (node.Mark().line >= 0) where += ":" + std::to_string(node.Mark().line + 1);
+  // A missing key of a const map is an invalid node, whose Mark() throws.
+  if (node.IsDefined() && node.Mark().line >= 0)
+    where += ":" + std::to_string(node.Mark().line + 1);
   throw Error(ErrorCode::InvalidConfig, where + ": " + why);
 }
 
@@ -34,7 +36,8 @@ void onlyKeys(std::string_view origin, const YAML::Node& map, const std::set<std
 }
 
 std::string scalar(std::string_view origin, const YAML::Node& node, const std::string& what) {
-  if (!node || !node.IsScalar()) fail(origin, node, what + " must be a plain value");
+  if (!node) fail(origin, node, what + " is missing");
+  if (!node.IsScalar()) fail(origin, node, what + " must be a plain value");
   return node.as<std::string>();
 }
 

@@ -220,14 +220,14 @@ struct Kernel::Impl {
 
   void publishSpecialTuples() {
     mutate([&](TupleSpace& s) {
-      s.set(special::kName, name);
-      s.set(special::kId, std::to_string(id));
-      s.set(special::kHostname, hostName());
-      s.set(special::kUser, userName());
-      s.set(special::kVersion, versionString());
-      s.set(special::kSubscribers, "");
-      s.set(special::kLinks, "");
-      s.set(special::kDoQuit, "no");
+      s.setKernelTuple(special::kName, name);
+      s.setKernelTuple(special::kId, std::to_string(id));
+      s.setKernelTuple(special::kHostname, hostName());
+      s.setKernelTuple(special::kUser, userName());
+      s.setKernelTuple(special::kVersion, versionString());
+      s.setKernelTuple(special::kSubscribers, "");
+      s.setKernelTuple(special::kLinks, "");
+      s.setKernelTuple(special::kDoQuit, "no");
       s.addCallback(
           Pattern::exact(id, special::kDoQuit), kOnChange, [this](EventKind, const Tuple& t) {
             if (t.data == "yes") {
@@ -247,7 +247,14 @@ Kernel::Kernel(Options options) {
   impl_ = std::make_unique<Impl>(std::move(options), id);
   impl_->thread = std::thread([impl = impl_.get()] { impl->io.run(); });
   impl_->threadId = impl_->thread.get_id();
-  impl_->publishSpecialTuples();
+  try {
+    impl_->publishSpecialTuples();
+  } catch (...) {
+    impl_->work.reset();
+    impl_->io.stop();
+    impl_->thread.join();
+    throw;
+  }
   log::info(id, "started as '" + impl_->name + "' (ecology " + impl_->options.ecology + ")");
 }
 

@@ -21,7 +21,9 @@ std::optional<std::string> partProblem(std::string_view part, std::size_t index)
     if (!isKeyChar(c)) {
       const auto u = static_cast<unsigned>(static_cast<unsigned char>(c));
       return "part " + std::to_string(index + 1) + " has the character " +
-             (u >= 0x21 && u <= 0x7e ? "'" + std::string(1, c) + "'" : "0x" + std::to_string(u)) +
+             (u >= 0x21 && u <= 0x7e
+                  ? "'" + std::string(1, c) + "'"
+                  : std::string("0x") + "0123456789abcdef"[u >> 4] + "0123456789abcdef"[u & 0xf]) +
              ", which keys may not contain";
     }
   }

@@ -120,7 +120,9 @@ Options Options::fromArgs(int& argc, char** argv) {
 
 void Options::validate() const {
   if (id && !isValidPeisId(*id)) bad("--peis-id", std::to_string(*id) + " is out of range");
-  if (!name.empty()) validateName(name);
+  if (!name.empty()) {
+    if (auto problem = nameProblem(name)) bad("--peis-name", *problem);
+  }
   for (const auto& target : connect) parseHostPort(target);
   for (const auto& [key, value] : setTuples) {
     if (auto problem = keyProblem(key)) bad("--peis-set-tuple", *problem);

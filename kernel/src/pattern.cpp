@@ -71,7 +71,7 @@ bool Pattern::matchesKey(std::string_view key) const {
     auto dot = key.find('.', start);
     const auto end = dot == std::string_view::npos ? key.size() : dot;
     const auto part = key.substr(start, end - start);
-    if (parts_[i] != "*" && part != parts_[i]) return false;
+    if (part.empty() || (parts_[i] != "*" && part != parts_[i])) return false;
     start = end + 1;
   }
   return start == key.size() + 1;  // every key part consumed

@@ -136,6 +136,17 @@ TuplePtr TupleSpace::set(std::string_view key, std::string data, const WriteOpti
   return store(std::move(tuple));
 }
 
+TuplePtr TupleSpace::setKernelTuple(std::string_view key, std::string data) {
+  const auto limit = limits_.maxDataBytes;
+  limits_.maxDataBytes = kMaxDataBytes;
+  struct Restore {
+    SpaceLimits& limits;
+    std::size_t value;
+    ~Restore() { limits.maxDataBytes = value; }
+  } restore{limits_, limit};
+  return set(key, std::move(data));
+}
+
 TuplePtr TupleSpace::append(std::string_view key, std::string_view data,
                             std::optional<std::uint64_t> ifSeqno, const WriteOptions& options,
                             PeisId creator) {
@@ -393,6 +404,9 @@ void TupleSpace::queueEvent(EventKind kind, const TuplePtr& tuple) {
       delivery.targets_.push_back(std::move(target));
     }
   }
+  // A PEIS taking, changing or losing a name can change where meta tuples
+  // that name owners by name point, so every indirect callback re-resolves.
+  const bool nameEvent = tuple->key == "kernel.name";
   std::vector<std::shared_ptr<Indirect>> metaWatchers;
   for (const auto& [id, indirect] : indirects_) {
     if (sameRef(indirect->queueTarget, *tuple)) {
@@ -400,7 +414,7 @@ void TupleSpace::queueEvent(EventKind kind, const TuplePtr& tuple) {
       target->indirect = indirect;
       delivery.targets_.push_back(std::move(target));
     }
-    if (indirect->meta.owner == tuple->owner && indirect->meta.key == tuple->key) {
+    if (nameEvent || (indirect->meta.owner == tuple->owner && indirect->meta.key == tuple->key)) {
       metaWatchers.push_back(indirect);
     }
   }
@@ -439,7 +453,7 @@ void TupleSpace::flushAllKeys() {
   }
   std::string list;
   for (const auto& key : keys) list += (list.empty() ? "" : " ") + key;
-  set("kernel.all-keys", std::move(list));
+  setKernelTuple("kernel.all-keys", std::move(list));
   allKeysDirty_ = false;
 }
 

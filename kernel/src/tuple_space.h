@@ -52,6 +52,8 @@ class TupleSpace {
   // `creator` 0 means self. Throws Error(InvalidKey / TooLarge).
   TuplePtr set(std::string_view key, std::string data, const WriteOptions& options = {},
                PeisId creator = 0);
+  // The kernel's own kernel.* tuples: like set(), exempt from the data limit.
+  TuplePtr setKernelTuple(std::string_view key, std::string data);
   // Appends `data` to the current value atomically; creates the tuple when
   // absent. With `ifSeqno`, fails with Error(Conflict) unless the current
   // seqno (0 when absent) is still that number.

@@ -1,0 +1,878 @@
+// Network implementation: links, handshake, liveness, discovery, routing.
+// See network.h for the contract and docs/protocol.md for the bytes.
+#include "net/network.h"
+
+#include <ifaddrs.h>
+#include <net/if.h>
+#include <netinet/in.h>
+
+#include <algorithm>
+#include <boost/asio/connect.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/ip/udp.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/write.hpp>
+#include <deque>
+#include <map>
+#include <set>
+
+#include "log.h"
+#include "peis/error.h"
+#include "peis/key.h"
+#include "peis/options.h"
+
+namespace peis::net {
+namespace asio = boost::asio;
+using asio::ip::tcp;
+using asio::ip::udp;
+using SteadyClock = std::chrono::steady_clock;
+
+namespace {
+
+constexpr int kMaxHops = 32;
+constexpr std::uint32_t kBeaconMagic = 0x50454942;  // "PEIB"
+constexpr std::size_t kReadChunk = 64 * 1024;
+constexpr std::chrono::milliseconds kAdvertDelay{5};
+constexpr std::chrono::milliseconds kRedialPeriod{1000};
+
+std::string endpointText(const tcp::endpoint& e) {
+  return e.address().to_string() + ":" + std::to_string(e.port());
+}
+
+// Beacon: u32 magic | u16 version | str8 ecology | i32 id | u64 incarnation |
+// u16 tcp port | u8 flags (1: please answer with a unicast beacon)
+struct Beacon {
+  std::string ecology;
+  PeisId id = 0;
+  std::uint64_t incarnation = 0;
+  std::uint16_t port = 0;
+  bool wantsAnswer = false;
+};
+
+std::string encodeBeacon(const Beacon& b) {
+  std::string out;
+  auto put = [&](std::uint64_t v, int bytes) {
+    for (int i = bytes - 1; i >= 0; --i) out.push_back(static_cast<char>(v >> (8 * i)));
+  };
+  put(kBeaconMagic, 4);
+  put(wire::kVersion, 2);
+  put(b.ecology.size(), 1);
+  out += b.ecology;
+  put(static_cast<std::uint32_t>(b.id), 4);
+  put(b.incarnation, 8);
+  put(b.port, 2);
+  put(b.wantsAnswer ? 1 : 0, 1);
+  return out;
+}
+
+std::optional<Beacon> decodeBeacon(std::string_view in) {
+  std::size_t pos = 0;
+  bool ok = true;
+  auto get = [&](int bytes) -> std::uint64_t {
+    if (!ok || in.size() - pos < static_cast<std::size_t>(bytes)) {
+      ok = false;
+      return 0;
+    }
+    std::uint64_t v = 0;
+    for (int i = 0; i < bytes; ++i) v = (v << 8) | static_cast<std::uint8_t>(in[pos++]);
+    return v;
+  };
+  Beacon b;
+  if (get(4) != kBeaconMagic || get(2) != wire::kVersion) return std::nullopt;
+  const auto length = get(1);
+  if (!ok || in.size() - pos < length) return std::nullopt;
+  b.ecology = std::string(in.substr(pos, length));
+  pos += length;
+  const auto id = static_cast<std::int32_t>(get(4));
+  b.incarnation = get(8);
+  b.port = static_cast<std::uint16_t>(get(2));
+  const auto flags = get(1);
+  if (!ok || pos != in.size() || !isValidPeisId(id) || b.port == 0 || flags > 1) {
+    return std::nullopt;
+  }
+  b.id = id;
+  b.wantsAnswer = flags == 1;
+  return b;
+}
+
+std::vector<asio::ip::address_v4> broadcastAddresses(DiscoveryScope scope) {
+  std::vector<asio::ip::address_v4> result{asio::ip::make_address_v4("127.255.255.255")};
+  if (scope != DiscoveryScope::Lan) return result;
+  ifaddrs* list = nullptr;
+  if (getifaddrs(&list) != 0) return result;
+  for (auto* it = list; it; it = it->ifa_next) {
+    if (!it->ifa_addr || it->ifa_addr->sa_family != AF_INET) continue;
+    if ((it->ifa_flags & IFF_LOOPBACK) || !(it->ifa_flags & IFF_BROADCAST) ||
+        !(it->ifa_flags & IFF_UP) || !it->ifa_broadaddr) {
+      continue;
+    }
+    const auto* sin = reinterpret_cast<const sockaddr_in*>(it->ifa_broadaddr);
+    result.emplace_back(ntohl(sin->sin_addr.s_addr));
+  }
+  freeifaddrs(list);
+  return result;
+}
+
+}  // namespace
+
+DiscoveryScope parseDiscoveryScope(std::string_view text) {
+  if (text == "off") return DiscoveryScope::Off;
+  if (text == "loopback") return DiscoveryScope::Loopback;
+  if (text == "lan") return DiscoveryScope::Lan;
+  throw Error(ErrorCode::InvalidArgument,
+              "discovery scope '" + std::string(text) + "' is not off, loopback or lan");
+}
+
+class Network::Impl {
+ public:
+  class Link;
+  struct Route {
+    int hops = 0;
+    PeisId nextHop = 0;
+    std::uint64_t incarnation = 0;
+    std::string name;
+    bool operator==(const Route&) const = default;
+  };
+  struct BeaconPeer {
+    asio::ip::address address;
+    std::uint16_t port = 0;
+    std::uint64_t incarnation = 0;
+    SteadyClock::time_point lastSeen;
+  };
+
+  Impl(asio::io_context& io, NetworkConfig config, PeisId self, std::uint64_t incarnation,
+       Events events)
+      : io_(io),
+        config_(std::move(config)),
+        self_(self),
+        incarnation_(incarnation),
+        events_(std::move(events)),
+        acceptor_(io),
+        udp_(io),
+        beaconTimer_(io),
+        pingTimer_(io),
+        advertTimer_(io),
+        redialTimer_(io),
+        explicitLinks_(config_.connect.size()) {}
+
+  void start();
+  void stop();
+  bool send(wire::RoutedMessage message);
+  bool sendUpdate(PeisId destination, const wire::TupleUpdate& update);
+  std::vector<PeerInfo> peers() const;
+  std::vector<LinkInfo> links() const;
+
+  // Called by links.
+  void onFrame(const std::shared_ptr<Link>& link, std::string_view frame);
+  void onClosed(const std::shared_ptr<Link>& link, const std::string& reason);
+  std::size_t maxFrameBytes() const { return config_.maxDataBytes + wire::kMaxFrameOverhead; }
+
+  asio::io_context& io_;
+  NetworkConfig config_;
+  PeisId self_;
+  std::uint64_t incarnation_;
+  Events events_;
+  Counters counters_;
+  bool stopped_ = false;
+
+ private:
+  void accept();
+  void dial(const std::string& host, std::uint16_t port, int explicitIndex);
+  void addLink(tcp::socket socket, bool outbound, int explicitIndex);
+  void onHello(const std::shared_ptr<Link>& link, const wire::Hello& hello);
+  void onRouted(const std::shared_ptr<Link>& link, std::string_view frame,
+                wire::RoutedMessage&& message);
+  void collision(std::uint64_t otherIncarnation);
+  void recompute();
+  void scheduleAdvert();
+  void advertise();
+  std::shared_ptr<Link> linkTo(PeisId peer) const;
+  bool forward(PeisId destination, std::string frame);
+  void beaconLoop();
+  void sendBeacon(const udp::endpoint& to, bool wantsAnswer);
+  void receiveBeacons();
+  void onBeacon(const Beacon& beacon, const udp::endpoint& from);
+  void evaluateDials();
+  void pingLoop();
+  void redialLoop();
+  wire::Hello hello() const;
+
+  tcp::acceptor acceptor_;
+  udp::socket udp_;
+  udp::endpoint beaconFrom_;
+  std::array<char, 512> beaconBuffer_{};
+  asio::steady_timer beaconTimer_, pingTimer_, advertTimer_, redialTimer_;
+  bool advertScheduled_ = false;
+  std::vector<std::shared_ptr<Link>> links_;
+  std::vector<std::weak_ptr<Link>> explicitLinks_;
+  std::map<PeisId, Route> routes_;
+  std::map<PeisId, std::vector<wire::RouteEntry>> adverts_;
+  std::map<PeisId, BeaconPeer> beaconPeers_;
+  std::set<PeisId> dialing_;
+};
+
+class Network::Impl::Link : public std::enable_shared_from_this<Link> {
+ public:
+  Link(Impl& net, tcp::socket socket, bool outbound, int explicitIndex)
+      : net_(net), socket_(std::move(socket)), outbound_(outbound), explicitIndex_(explicitIndex) {
+    boost::system::error_code ec;
+    socket_.set_option(tcp::no_delay(true), ec);
+    const auto remote = socket_.remote_endpoint(ec);
+    remote_ = ec ? std::string("?") : endpointText(remote);
+    lastHeard_ = SteadyClock::now();
+  }
+
+  void start(const wire::Hello& hello) {
+    std::string frame;
+    wire::encode(wire::LinkMessage{hello}, frame);
+    sendFrame(frame);
+    read();
+  }
+
+  void sendFrame(std::string_view frame) {
+    if (closed_) return;
+    flushUpdates();
+    pending_.append(frame);
+    ++net_.counters_.framesOut;
+    write();
+  }
+
+  // Coalesces an update when the link is backlogged (latest-value semantics).
+  void sendUpdate(const TupleRef& ref, std::string frame) {
+    if (closed_) return;
+    if (updateOrder_.empty() && backlog() < net_.config_.coalesceAboveBytes) {
+      pending_.append(frame);
+      ++net_.counters_.framesOut;
+      write();
+      return;
+    }
+    auto [it, inserted] = updates_.try_emplace(ref, std::move(frame));
+    if (inserted) {
+      updateOrder_.push_back(ref);
+    } else {
+      it->second = std::move(frame);
+      ++net_.counters_.coalesced;
+    }
+    write();
+  }
+
+  void close(const std::string& reason) {
+    if (closed_) return;
+    closed_ = true;
+    boost::system::error_code ec;
+    socket_.shutdown(tcp::socket::shutdown_both, ec);
+    socket_.close(ec);
+    net_.onClosed(shared_from_this(), reason);
+  }
+
+  // Sends what is queued, then closes.
+  void closeAfterFlush(const std::string& reason) {
+    closeReason_ = reason;
+    if (!writing_) close(reason);
+  }
+
+  std::size_t backlog() const { return out_.size() + pending_.size(); }
+
+  Impl& net_;
+  tcp::socket socket_;
+  bool outbound_;
+  int explicitIndex_;
+  std::string remote_;
+  bool established_ = false;
+  wire::Hello peer_;
+  SteadyClock::time_point lastHeard_;
+  int malformed_ = 0;
+  bool closed_ = false;
+
+ private:
+  void flushUpdates() {
+    for (const auto& ref : updateOrder_) {
+      pending_.append(updates_[ref]);
+      ++net_.counters_.framesOut;
+    }
+    updateOrder_.clear();
+    updates_.clear();
+  }
+
+  void write() {
+    if (writing_ || closed_) return;
+    if (pending_.empty() && !updateOrder_.empty() &&
+        backlog() < net_.config_.coalesceAboveBytes) {
+      flushUpdates();
+    }
+    if (pending_.empty()) return;
+    out_.swap(pending_);
+    pending_.clear();
+    writing_ = true;
+    asio::async_write(socket_, asio::buffer(out_),
+                      [self = shared_from_this()](const boost::system::error_code& ec, std::size_t) {
+                        self->writing_ = false;
+                        self->out_.clear();
+                        if (ec) return self->close("write failed: " + ec.message());
+                        if (!self->closeReason_.empty() && self->pending_.empty()) {
+                          return self->close(self->closeReason_);
+                        }
+                        if (self->pending_.empty()) self->flushUpdates();
+                        self->write();
+                      });
+  }
+
+  void read() {
+    if (closed_) return;
+    if (in_.size() - inPos_ + kReadChunk > in_.capacity() && inPos_ > 0) {
+      in_.erase(0, inPos_);
+      inPos_ = 0;
+    }
+    const auto used = in_.size();
+    in_.resize(used + kReadChunk);
+    socket_.async_read_some(
+        asio::buffer(in_.data() + used, kReadChunk),
+        [self = shared_from_this(), used](const boost::system::error_code& ec, std::size_t n) {
+          self->in_.resize(used + n);
+          if (ec) {
+            return self->close(ec == asio::error::eof ? "closed by peer" : ec.message());
+          }
+          self->lastHeard_ = SteadyClock::now();
+          self->parse();
+          self->read();
+        });
+  }
+
+  void parse() {
+    while (!closed_) {
+      const std::size_t available = in_.size() - inPos_;
+      if (available < wire::kFrameHeaderBytes) break;
+      const auto length = wire::frameLength(std::string_view(in_).substr(inPos_));
+      if (length == 0 || length > net_.maxFrameBytes()) {
+        ++net_.counters_.malformedFrames;
+        ++net_.counters_.garbagePeersDisconnected;
+        return close("frame length " + std::to_string(length) + " is impossible: garbage");
+      }
+      if (available < wire::kFrameHeaderBytes + length) break;
+      const auto frame = std::string_view(in_).substr(inPos_ + wire::kFrameHeaderBytes, length);
+      inPos_ += wire::kFrameHeaderBytes + length;
+      net_.onFrame(shared_from_this(), frame);
+    }
+    if (inPos_ == in_.size()) {
+      in_.clear();
+      inPos_ = 0;
+    }
+  }
+
+  std::string in_;
+  std::size_t inPos_ = 0;
+  std::string out_, pending_;
+  std::map<TupleRef, std::string> updates_;
+  std::deque<TupleRef> updateOrder_;
+  bool writing_ = false;
+  std::string closeReason_;
+};
+
+wire::Hello Network::Impl::hello() const {
+  wire::Hello h;
+  h.ecology = config_.ecology;
+  h.id = self_;
+  h.incarnation = incarnation_;
+  h.name = config_.name;
+  h.listenPort = acceptor_.is_open() ? acceptor_.local_endpoint().port() : 0;
+  h.capabilities = wire::kCapabilityCoalescing;
+  return h;
+}
+
+void Network::Impl::start() {
+  tcp::endpoint endpoint(tcp::v4(), config_.port);
+  boost::system::error_code ec;
+  acceptor_.open(endpoint.protocol(), ec);
+  if (!ec) acceptor_.set_option(tcp::acceptor::reuse_address(true), ec);
+  if (!ec) acceptor_.bind(endpoint, ec);
+  if (!ec) acceptor_.listen(asio::socket_base::max_listen_connections, ec);
+  if (ec) {
+    throw Error(ErrorCode::InvalidArgument,
+                "cannot listen on TCP port " + std::to_string(config_.port) + ": " + ec.message());
+  }
+  accept();
+  if (config_.discovery != DiscoveryScope::Off) {
+    udp_.open(udp::v4(), ec);
+    if (!ec) udp_.set_option(udp::socket::reuse_address(true), ec);
+    if (!ec) udp_.set_option(asio::socket_base::broadcast(true), ec);
+    if (!ec) udp_.bind(udp::endpoint(udp::v4(), config_.discoveryPort), ec);
+    if (ec) {
+      log::warn(self_, "discovery off: cannot bind UDP port " +
+                           std::to_string(config_.discoveryPort) + ": " + ec.message());
+      udp_.close(ec);
+    } else {
+      receiveBeacons();
+      beaconLoop();
+    }
+  }
+  for (std::size_t i = 0; i < config_.connect.size(); ++i) {
+    const auto [host, port] = parseHostPort(config_.connect[i]);
+    dial(host, port, static_cast<int>(i));
+  }
+  routes_[self_] = Route{0, self_, incarnation_, config_.name};
+  pingLoop();
+  redialLoop();
+}
+
+void Network::Impl::stop() {
+  stopped_ = true;
+  boost::system::error_code ec;
+  acceptor_.close(ec);
+  udp_.close(ec);
+  beaconTimer_.cancel();
+  pingTimer_.cancel();
+  advertTimer_.cancel();
+  redialTimer_.cancel();
+  auto links = links_;
+  for (auto& link : links) link->close("shutting down");
+}
+
+void Network::Impl::accept() {
+  acceptor_.async_accept([this](const boost::system::error_code& ec, tcp::socket socket) {
+    if (stopped_) return;
+    if (!ec) addLink(std::move(socket), false, -1);
+    accept();
+  });
+}
+
+void Network::Impl::dial(const std::string& host, std::uint16_t port, int explicitIndex) {
+  auto resolver = std::make_shared<tcp::resolver>(io_);
+  resolver->async_resolve(
+      host, std::to_string(port),
+      [this, resolver, explicitIndex, host](const boost::system::error_code& ec,
+                                            tcp::resolver::results_type results) {
+        if (stopped_) return;
+        if (ec) {
+          log::warn(self_, "cannot resolve " + host + ": " + ec.message());
+          return;
+        }
+        auto socket = std::make_shared<tcp::socket>(io_);
+        asio::async_connect(*socket, results,
+                            [this, socket, explicitIndex](const boost::system::error_code& ec2,
+                                                          const tcp::endpoint&) {
+                              if (stopped_ || ec2) return;
+                              addLink(std::move(*socket), true, explicitIndex);
+                            });
+      });
+}
+
+void Network::Impl::addLink(tcp::socket socket, bool outbound, int explicitIndex) {
+  auto link = std::make_shared<Link>(*this, std::move(socket), outbound, explicitIndex);
+  links_.push_back(link);
+  if (explicitIndex >= 0) explicitLinks_[static_cast<std::size_t>(explicitIndex)] = link;
+  link->start(hello());
+}
+
+void Network::Impl::onClosed(const std::shared_ptr<Link>& link, const std::string& reason) {
+  links_.erase(std::remove(links_.begin(), links_.end(), link), links_.end());
+  if (link->established_) {
+    dialing_.erase(link->peer_.id);
+    log::info(self_, "link to PEIS " + std::to_string(link->peer_.id) + " (" + link->remote_ +
+                         ") closed: " + reason);
+    if (!linkTo(link->peer_.id)) adverts_.erase(link->peer_.id);
+    recompute();
+  } else {
+    log::debug(self_, "link " + link->remote_ + " closed before the handshake: " + reason);
+  }
+}
+
+void Network::Impl::onFrame(const std::shared_ptr<Link>& link, std::string_view frame) {
+  ++counters_.framesIn;
+  auto result = wire::decode(frame, config_.maxDataBytes);
+  if (!result.message) {
+    ++counters_.malformedFrames;
+    log::warn(self_, "dropped a malformed frame from " + link->remote_ + ": " + result.error);
+    if (++link->malformed_ >= config_.maxMalformedFrames || !link->established_) {
+      ++counters_.garbagePeersDisconnected;
+      link->close("sent garbage");
+    }
+    return;
+  }
+  if (auto* routed = std::get_if<wire::RoutedMessage>(&*result.message)) {
+    if (!link->established_) {
+      ++counters_.garbagePeersDisconnected;
+      return link->close("routed message before the handshake");
+    }
+    return onRouted(link, frame, std::move(*routed));
+  }
+  auto& message = std::get<wire::LinkMessage>(*result.message);
+  if (auto* hello = std::get_if<wire::Hello>(&message)) return onHello(link, *hello);
+  if (!link->established_) {
+    ++counters_.garbagePeersDisconnected;
+    return link->close("no handshake");
+  }
+  if (auto* ping = std::get_if<wire::Ping>(&message)) {
+    std::string out;
+    wire::encode(wire::LinkMessage{wire::Pong{ping->nonce}}, out);
+    link->sendFrame(out);
+  } else if (auto* routes = std::get_if<wire::Routes>(&message)) {
+    adverts_[link->peer_.id] = std::move(routes->entries);
+    recompute();
+  } else if (auto* taken = std::get_if<wire::IdTaken>(&message)) {
+    if (taken->id == self_ && taken->incarnation == incarnation_) collision(0);
+  }
+}
+
+void Network::Impl::onHello(const std::shared_ptr<Link>& link, const wire::Hello& hello) {
+  if (link->established_) {
+    ++link->malformed_;
+    return;
+  }
+  if (hello.version != wire::kVersion) {
+    return link->close("protocol version " + std::to_string(hello.version) + " is not " +
+                       std::to_string(wire::kVersion));
+  }
+  if (hello.ecology != config_.ecology) {
+    ++counters_.foreignEcologyRejected;
+    return link->close("peer belongs to ecology '" + hello.ecology + "'");
+  }
+  if (hello.id == self_) {
+    if (hello.incarnation == incarnation_) return link->close("connected to myself");
+    ++counters_.idCollisions;
+    if (incarnation_ < hello.incarnation) {
+      std::string out;
+      wire::encode(wire::LinkMessage{wire::IdTaken{hello.id, hello.incarnation}}, out);
+      link->sendFrame(out);
+      return link->closeAfterFlush("id " + std::to_string(self_) + " is mine");
+    }
+    link->close("id collision");
+    return collision(hello.incarnation);
+  }
+  if (auto existing = linkTo(hello.id)) {
+    // Keep the link the lower id dialled, so both ends keep the same one.
+    const bool keepNew = (self_ < hello.id) == link->outbound_;
+    if (!keepNew || existing->outbound_ == link->outbound_) {
+      return link->close("duplicate link to PEIS " + std::to_string(hello.id));
+    }
+    existing->established_ = false;
+    existing->close("replaced by a new link");
+  }
+  link->established_ = true;
+  link->peer_ = hello;
+  dialing_.erase(hello.id);
+  log::info(self_, "linked to PEIS " + std::to_string(hello.id) + " '" + hello.name + "' at " +
+                       link->remote_ + (link->outbound_ ? " (dialled)" : " (accepted)"));
+  recompute();
+  advertise();
+}
+
+void Network::Impl::collision(std::uint64_t otherIncarnation) {
+  if (otherIncarnation != 0 && otherIncarnation > incarnation_) return;  // the other re-picks
+  const PeisId old = self_;
+  self_ = events_.repickId ? events_.repickId() : old;
+  log::warn(old, "id " + std::to_string(old) + " is held by a PEIS that started earlier; now " +
+                     std::to_string(self_));
+  routes_.clear();
+  adverts_.clear();
+  auto links = links_;
+  for (auto& l : links) l->close("re-picked my id");
+  routes_[self_] = Route{0, self_, incarnation_, config_.name};
+  if (udp_.is_open()) sendBeacon(udp::endpoint(asio::ip::make_address_v4("127.255.255.255"), config_.discoveryPort), true);
+}
+
+void Network::Impl::onRouted(const std::shared_ptr<Link>& link, std::string_view frame,
+                             wire::RoutedMessage&& message) {
+  const auto& envelope = message.envelope;
+  if (envelope.source == self_ || !routes_.count(envelope.source)) {
+    ++counters_.malformedFrames;
+    log::warn(self_, "dropped a frame from " + link->remote_ + " with spoofed or unknown source " +
+                         std::to_string(envelope.source));
+    if (++link->malformed_ >= config_.maxMalformedFrames) {
+      ++counters_.garbagePeersDisconnected;
+      link->close("sent garbage");
+    }
+    return;
+  }
+  if (envelope.destination == self_) {
+    if (events_.onMessage) events_.onMessage(std::move(message));
+    return;
+  }
+  if (envelope.ttl <= 1) {
+    ++counters_.unroutable;
+    return;
+  }
+  std::string copy;
+  copy.reserve(frame.size() + wire::kFrameHeaderBytes);
+  const auto length = static_cast<std::uint32_t>(frame.size());
+  for (int i = 0; i < 4; ++i) copy.push_back(static_cast<char>(length >> (24 - 8 * i)));
+  copy.append(frame);
+  auto routedEnvelope = envelope;
+  --routedEnvelope.ttl;
+  wire::reEnvelope(copy, routedEnvelope);
+  forward(envelope.destination, std::move(copy));
+}
+
+std::shared_ptr<Network::Impl::Link> Network::Impl::linkTo(PeisId peer) const {
+  for (const auto& link : links_) {
+    if (link->established_ && link->peer_.id == peer) return link;
+  }
+  return nullptr;
+}
+
+bool Network::Impl::forward(PeisId destination, std::string frame) {
+  auto route = routes_.find(destination);
+  if (route == routes_.end() || route->second.hops == 0) {
+    ++counters_.unroutable;
+    return false;
+  }
+  auto link = linkTo(route->second.nextHop);
+  if (!link) {
+    ++counters_.unroutable;
+    return false;
+  }
+  link->sendFrame(frame);
+  return true;
+}
+
+bool Network::Impl::send(wire::RoutedMessage message) {
+  message.envelope.source = self_;
+  if (message.envelope.ttl == 0) message.envelope.ttl = wire::kDefaultTtl;
+  return forward(message.envelope.destination, wire::encodeFrame(message));
+}
+
+bool Network::Impl::sendUpdate(PeisId destination, const wire::TupleUpdate& update) {
+  auto route = routes_.find(destination);
+  if (route == routes_.end() || route->second.hops == 0) {
+    ++counters_.unroutable;
+    return false;
+  }
+  auto link = linkTo(route->second.nextHop);
+  if (!link) {
+    ++counters_.unroutable;
+    return false;
+  }
+  wire::RoutedMessage message{wire::Envelope{self_, destination, wire::kDefaultTtl}, update};
+  link->sendUpdate(TupleRef{destination, update.tuple.fullName()}, wire::encodeFrame(message));
+  return true;
+}
+
+void Network::Impl::recompute() {
+  std::map<PeisId, Route> next;
+  next[self_] = Route{0, self_, incarnation_, config_.name};
+  auto offer = [&](PeisId id, const Route& route) {
+    auto [it, inserted] = next.try_emplace(id, route);
+    if (inserted) return;
+    auto& current = it->second;
+    const auto old = routes_.find(id);
+    const bool keepsOld = old != routes_.end() && old->second.nextHop == route.nextHop;
+    if (route.hops < current.hops || (route.hops == current.hops && keepsOld)) current = route;
+  };
+  for (const auto& link : links_) {
+    if (!link->established_) continue;
+    const auto& peer = link->peer_;
+    offer(peer.id, Route{1, peer.id, peer.incarnation, peer.name});
+    auto advert = adverts_.find(peer.id);
+    if (advert == adverts_.end()) continue;
+    for (const auto& entry : advert->second) {
+      if (entry.id == self_) {
+        if (entry.incarnation != incarnation_ && entry.hops == 0) {
+          ++counters_.idCollisions;
+          collision(entry.incarnation);
+          return;
+        }
+        continue;
+      }
+      if (entry.hops + 1 > kMaxHops) continue;
+      offer(entry.id, Route{entry.hops + 1, peer.id, entry.incarnation, entry.name});
+    }
+  }
+  if (next == routes_) return;
+  auto old = std::move(routes_);
+  routes_ = std::move(next);
+  scheduleAdvert();
+  for (const auto& [id, route] : old) {
+    if (!routes_.count(id) && events_.onPeerDown) events_.onPeerDown(id);
+  }
+  for (const auto& [id, route] : routes_) {
+    if (id == self_) continue;
+    auto before = old.find(id);
+    if ((before == old.end() || before->second.incarnation != route.incarnation) &&
+        events_.onPeerUp) {
+      events_.onPeerUp(PeerInfo{id, route.name, route.incarnation, route.hops, route.nextHop});
+    }
+  }
+}
+
+void Network::Impl::scheduleAdvert() {
+  if (advertScheduled_ || stopped_) return;
+  advertScheduled_ = true;
+  advertTimer_.expires_after(kAdvertDelay);
+  advertTimer_.async_wait([this](const boost::system::error_code& ec) {
+    advertScheduled_ = false;
+    if (!ec && !stopped_) advertise();
+  });
+}
+
+void Network::Impl::advertise() {
+  for (const auto& link : links_) {
+    if (!link->established_) continue;
+    wire::Routes routes;
+    for (const auto& [id, route] : routes_) {
+      if (route.hops > 0 && route.nextHop == link->peer_.id) continue;  // split horizon
+      routes.entries.push_back(wire::RouteEntry{id, static_cast<std::uint8_t>(route.hops),
+                                                route.incarnation, route.name});
+    }
+    std::string out;
+    wire::encode(wire::LinkMessage{routes}, out);
+    link->sendFrame(out);
+  }
+}
+
+void Network::Impl::pingLoop() {
+  pingTimer_.expires_after(config_.pingPeriod);
+  pingTimer_.async_wait([this](const boost::system::error_code& ec) {
+    if (ec || stopped_) return;
+    const auto now = SteadyClock::now();
+    auto links = links_;
+    for (auto& link : links) {
+      if (now - link->lastHeard_ > config_.deadAfter) {
+        link->close("silent for more than " + std::to_string(config_.deadAfter.count()) + " ms");
+        continue;
+      }
+      if (!link->established_) continue;
+      std::string out;
+      wire::encode(wire::LinkMessage{wire::Ping{static_cast<std::uint64_t>(now.time_since_epoch().count())}},
+                   out);
+      link->sendFrame(out);
+    }
+    pingLoop();
+  });
+}
+
+void Network::Impl::redialLoop() {
+  redialTimer_.expires_after(kRedialPeriod);
+  redialTimer_.async_wait([this](const boost::system::error_code& ec) {
+    if (ec || stopped_) return;
+    for (std::size_t i = 0; i < config_.connect.size(); ++i) {
+      if (!explicitLinks_[i].expired()) continue;
+      const auto [host, port] = parseHostPort(config_.connect[i]);
+      dial(host, port, static_cast<int>(i));
+    }
+    redialLoop();
+  });
+}
+
+void Network::Impl::beaconLoop() {
+  for (const auto& address : broadcastAddresses(config_.discovery)) {
+    sendBeacon(udp::endpoint(address, config_.discoveryPort), true);
+  }
+  // Forget beacon peers that went quiet.
+  const auto now = SteadyClock::now();
+  for (auto it = beaconPeers_.begin(); it != beaconPeers_.end();) {
+    it = now - it->second.lastSeen > config_.beaconPeriod * 4 ? beaconPeers_.erase(it) : std::next(it);
+  }
+  evaluateDials();
+  beaconTimer_.expires_after(config_.beaconPeriod);
+  beaconTimer_.async_wait([this](const boost::system::error_code& ec) {
+    if (!ec && !stopped_) beaconLoop();
+  });
+}
+
+void Network::Impl::sendBeacon(const udp::endpoint& to, bool wantsAnswer) {
+  Beacon beacon{config_.ecology, self_, incarnation_, acceptor_.local_endpoint().port(), wantsAnswer};
+  auto payload = std::make_shared<std::string>(encodeBeacon(beacon));
+  udp_.async_send_to(asio::buffer(*payload), to,
+                     [payload](const boost::system::error_code&, std::size_t) {});
+}
+
+void Network::Impl::receiveBeacons() {
+  udp_.async_receive_from(asio::buffer(beaconBuffer_), beaconFrom_,
+                          [this](const boost::system::error_code& ec, std::size_t n) {
+                            if (stopped_ || ec == asio::error::operation_aborted) return;
+                            if (!ec) {
+                              auto beacon = decodeBeacon(std::string_view(beaconBuffer_.data(), n));
+                              if (beacon) {
+                                onBeacon(*beacon, beaconFrom_);
+                              } else {
+                                ++counters_.malformedBeacons;
+                              }
+                            }
+                            receiveBeacons();
+                          });
+}
+
+void Network::Impl::onBeacon(const Beacon& beacon, const udp::endpoint& from) {
+  if (beacon.ecology != config_.ecology) return;
+  if (beacon.id == self_) {
+    if (beacon.incarnation != incarnation_) {
+      ++counters_.idCollisions;
+      collision(beacon.incarnation);
+    }
+    return;
+  }
+  auto [it, isNew] = beaconPeers_.try_emplace(beacon.id);
+  isNew = isNew || it->second.incarnation != beacon.incarnation;
+  it->second = BeaconPeer{from.address(), beacon.port, beacon.incarnation, SteadyClock::now()};
+  if (isNew) {
+    if (beacon.wantsAnswer) sendBeacon(from, false);
+    evaluateDials();
+  }
+}
+
+// Links to the PEIS at distances 1, 2, 4, 8, ... after this one in id order
+// (wrapping): a connected overlay of O(log N) links per PEIS.
+void Network::Impl::evaluateDials() {
+  std::vector<PeisId> ids{self_};
+  for (const auto& [id, peer] : beaconPeers_) ids.push_back(id);
+  std::sort(ids.begin(), ids.end());
+  const auto n = ids.size();
+  const auto mine = static_cast<std::size_t>(std::find(ids.begin(), ids.end(), self_) - ids.begin());
+  for (std::size_t step = 1; step < n; step *= 2) {
+    const PeisId target = ids[(mine + step) % n];
+    if (target == self_ || linkTo(target) || dialing_.count(target)) continue;
+    const auto& peer = beaconPeers_[target];
+    dialing_.insert(target);
+    auto socket = std::make_shared<tcp::socket>(io_);
+    socket->async_connect(tcp::endpoint(peer.address, peer.port),
+                          [this, socket, target](const boost::system::error_code& ec) {
+                            if (stopped_) return;
+                            if (ec) {
+                              dialing_.erase(target);
+                              return;
+                            }
+                            addLink(std::move(*socket), true, -1);
+                          });
+  }
+}
+
+std::vector<PeerInfo> Network::Impl::peers() const {
+  std::vector<PeerInfo> result;
+  for (const auto& [id, route] : routes_) {
+    result.push_back(PeerInfo{id, route.name, route.incarnation, route.hops, route.nextHop});
+  }
+  return result;
+}
+
+std::vector<LinkInfo> Network::Impl::links() const {
+  std::vector<LinkInfo> result;
+  for (const auto& link : links_) {
+    if (!link->established_) continue;
+    result.push_back(LinkInfo{link->peer_.id, link->peer_.name, link->remote_, link->outbound_,
+                              link->backlog()});
+  }
+  return result;
+}
+
+Network::Network(asio::io_context& io, NetworkConfig config, PeisId self,
+                 std::uint64_t incarnation, Events events)
+    : impl_(std::make_unique<Impl>(io, std::move(config), self, incarnation, std::move(events))) {}
+Network::~Network() = default;
+void Network::start() { impl_->start(); }
+void Network::stop() { impl_->stop(); }
+bool Network::send(wire::RoutedMessage message) { return impl_->send(std::move(message)); }
+bool Network::sendUpdate(PeisId destination, const wire::TupleUpdate& update) {
+  return impl_->sendUpdate(destination, update);
+}
+bool Network::reachable(PeisId id) const {
+  for (const auto& peer : impl_->peers()) {
+    if (peer.id == id) return true;
+  }
+  return false;
+}
+std::vector<PeerInfo> Network::peers() const { return impl_->peers(); }
+std::vector<LinkInfo> Network::links() const { return impl_->links(); }
+const Counters& Network::counters() const { return impl_->counters_; }
+std::uint16_t Network::port() const { return impl_->config_.port; }
+PeisId Network::self() const { return impl_->self_; }
+
+}  // namespace peis::net

@@ -1,0 +1,113 @@
+// Network: the P2P layer of one PEIS. It discovers other PEIS of the same
+// ecology (UDP beacons), keeps TCP links to some of them (handshake, pings,
+// liveness), maintains a distance-vector routing table so every PEIS reaches
+// every other one over several hops, and delivers routed frames. It knows
+// frames, not what tuples mean. Everything runs on the kernel's io_context
+// thread; no method may be called from another thread.
+#pragma once
+
+#include <boost/asio/io_context.hpp>
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "net/wire.h"
+#include "peis/types.h"
+
+namespace peis::net {
+
+enum class DiscoveryScope { Off, Loopback, Lan };
+
+struct NetworkConfig {
+  std::string ecology = "default";
+  std::string name;
+  std::uint16_t port = 0;              // 0: any free port
+  std::vector<std::string> connect;    // HOST:PORT links kept up
+  DiscoveryScope discovery = DiscoveryScope::Lan;
+  std::uint16_t discoveryPort = 7700;  // UDP port of the beacons
+  std::chrono::milliseconds beaconPeriod{1000};
+  std::chrono::milliseconds pingPeriod{500};
+  std::chrono::milliseconds deadAfter{2000};  // silence after which a link is dead
+  std::size_t maxDataBytes = kDefaultMaxDataBytes;
+  std::size_t coalesceAboveBytes = 4u << 20;  // backlog above which updates coalesce
+  int maxMalformedFrames = 8;                 // then the peer is disconnected
+};
+
+struct PeerInfo {
+  PeisId id = 0;
+  std::string name;
+  std::uint64_t incarnation = 0;
+  int hops = 0;         // 0: this PEIS, 1: a direct link
+  PeisId nextHop = 0;   // the linked PEIS the route goes through
+};
+
+struct LinkInfo {
+  PeisId peer = 0;
+  std::string peerName;
+  std::string remote;  // address:port
+  bool outbound = false;
+  std::size_t backlogBytes = 0;
+};
+
+struct Counters {
+  std::uint64_t framesIn = 0;
+  std::uint64_t framesOut = 0;
+  std::uint64_t malformedFrames = 0;
+  std::uint64_t garbagePeersDisconnected = 0;
+  std::uint64_t foreignEcologyRejected = 0;
+  std::uint64_t unroutable = 0;
+  std::uint64_t coalesced = 0;
+  std::uint64_t idCollisions = 0;
+  std::uint64_t malformedBeacons = 0;
+};
+
+class Network {
+ public:
+  struct Events {
+    // A routed message addressed to this PEIS arrived.
+    std::function<void(wire::RoutedMessage&&)> onMessage;
+    // A PEIS became reachable, or came back with a new incarnation.
+    std::function<void(const PeerInfo&)> onPeerUp;
+    // A PEIS is no longer reachable.
+    std::function<void(PeisId)> onPeerDown;
+    // Another PEIS that started earlier holds our id: pick a new one.
+    std::function<PeisId()> repickId;
+  };
+
+  Network(boost::asio::io_context& io, NetworkConfig config, PeisId self,
+          std::uint64_t incarnation, Events events);
+  ~Network();
+  Network(const Network&) = delete;
+  Network& operator=(const Network&) = delete;
+
+  // Binds the listener and the discovery socket; throws Error(InvalidArgument)
+  // when the port is taken.
+  void start();
+  void stop();
+
+  // Routes a message (envelope source is filled in). False when there is no
+  // route to the destination (counted).
+  bool send(wire::RoutedMessage message);
+  // Sends a tuple update; when the link to the next hop is backlogged, an
+  // update still waiting for the same (owner, key) is replaced (counted).
+  bool sendUpdate(PeisId destination, const wire::TupleUpdate& update);
+
+  bool reachable(PeisId id) const;
+  std::vector<PeerInfo> peers() const;
+  std::vector<LinkInfo> links() const;
+  const Counters& counters() const;
+  std::uint16_t port() const;
+  PeisId self() const;
+
+ private:
+  class Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+DiscoveryScope parseDiscoveryScope(std::string_view text);
+
+}  // namespace peis::net

@@ -1,0 +1,435 @@
+// Wire frame encoder and checked decoder; layout in wire_format.h.
+#include "net/wire.h"
+
+#include "peis/key.h"
+
+namespace peis::wire {
+namespace {
+
+class Writer {
+ public:
+  explicit Writer(std::string& out) : out_(out) {}
+  void u8(std::uint8_t v) { out_.push_back(static_cast<char>(v)); }
+  void u16(std::uint16_t v) {
+    u8(static_cast<std::uint8_t>(v >> 8));
+    u8(static_cast<std::uint8_t>(v));
+  }
+  void u32(std::uint32_t v) {
+    u16(static_cast<std::uint16_t>(v >> 16));
+    u16(static_cast<std::uint16_t>(v));
+  }
+  void u64(std::uint64_t v) {
+    u32(static_cast<std::uint32_t>(v >> 32));
+    u32(static_cast<std::uint32_t>(v));
+  }
+  void i32(std::int32_t v) { u32(static_cast<std::uint32_t>(v)); }
+  void i64(std::int64_t v) { u64(static_cast<std::uint64_t>(v)); }
+  void str8(std::string_view s) {
+    u8(static_cast<std::uint8_t>(std::min<std::size_t>(s.size(), 255)));
+    out_.append(s.substr(0, 255));
+  }
+  void str16(std::string_view s) {
+    u16(static_cast<std::uint16_t>(std::min<std::size_t>(s.size(), 65535)));
+    out_.append(s.substr(0, 65535));
+  }
+  void bytes32(std::string_view s) {
+    u32(static_cast<std::uint32_t>(s.size()));
+    out_.append(s);
+  }
+
+ private:
+  std::string& out_;
+};
+
+// Reads fields with bounds checks; the first failure sticks and names itself.
+class Reader {
+ public:
+  explicit Reader(std::string_view in) : in_(in) {}
+  bool ok() const { return error_.empty(); }
+  const std::string& error() const { return error_; }
+  void fail(std::string why) {
+    if (error_.empty()) error_ = std::move(why);
+  }
+  bool need(std::size_t n, const char* what) {
+    if (!ok()) return false;
+    if (in_.size() - pos_ < n) {
+      fail(std::string("truncated ") + what);
+      return false;
+    }
+    return true;
+  }
+  std::uint8_t u8(const char* what) {
+    if (!need(1, what)) return 0;
+    return static_cast<std::uint8_t>(in_[pos_++]);
+  }
+  std::uint16_t u16(const char* what) {
+    if (!need(2, what)) return 0;
+    std::uint16_t v = static_cast<std::uint16_t>((static_cast<std::uint8_t>(in_[pos_]) << 8) |
+                                                 static_cast<std::uint8_t>(in_[pos_ + 1]));
+    pos_ += 2;
+    return v;
+  }
+  std::uint32_t u32(const char* what) {
+    if (!need(4, what)) return 0;
+    std::uint32_t v = 0;
+    for (int i = 0; i < 4; ++i) v = (v << 8) | static_cast<std::uint8_t>(in_[pos_ + i]);
+    pos_ += 4;
+    return v;
+  }
+  std::uint64_t u64(const char* what) {
+    if (!need(8, what)) return 0;
+    std::uint64_t v = 0;
+    for (int i = 0; i < 8; ++i) v = (v << 8) | static_cast<std::uint8_t>(in_[pos_ + i]);
+    pos_ += 8;
+    return v;
+  }
+  std::int32_t i32(const char* what) { return static_cast<std::int32_t>(u32(what)); }
+  std::int64_t i64(const char* what) { return static_cast<std::int64_t>(u64(what)); }
+  std::string bytes(std::size_t n, const char* what) {
+    if (!need(n, what)) return {};
+    std::string s(in_.substr(pos_, n));
+    pos_ += n;
+    return s;
+  }
+  std::string str8(const char* what) { return bytes(u8(what), what); }
+  std::string str16(const char* what) { return bytes(u16(what), what); }
+  PeisId id(const char* what) {
+    const auto v = i32(what);
+    if (ok() && !isValidPeisId(v)) fail(std::string("invalid ") + what + " " + std::to_string(v));
+    return v;
+  }
+  void end() {
+    if (ok() && pos_ != in_.size()) {
+      fail(std::to_string(in_.size() - pos_) + " unexpected trailing bytes");
+    }
+  }
+
+ private:
+  std::string_view in_;
+  std::size_t pos_ = 0;
+  std::string error_;
+};
+
+std::int64_t micros(Timestamp t) { return t.time_since_epoch().count(); }
+Timestamp fromMicros(std::int64_t v) { return Timestamp(std::chrono::microseconds(v)); }
+
+void writeTuple(Writer& w, const Tuple& t) {
+  w.i32(t.owner);
+  w.i32(t.creator);
+  w.str16(t.key);
+  w.str8(t.mimetype);
+  w.u8(static_cast<std::uint8_t>(t.encoding));
+  w.i64(micros(t.ts_write));
+  w.i64(micros(t.ts_user));
+  w.i64(micros(t.ts_expire));
+  w.u64(t.seqno);
+  w.bytes32(t.data);
+}
+
+void checkKey(Reader& r, const std::string& key, const char* what) {
+  if (!r.ok()) return;
+  if (auto problem = keyProblem(key)) r.fail(std::string("bad ") + what + ": " + *problem);
+}
+
+Tuple readTuple(Reader& r, std::size_t maxDataBytes) {
+  Tuple t;
+  t.owner = r.id("tuple owner");
+  t.creator = r.id("tuple creator");
+  t.key = r.str16("tuple key");
+  checkKey(r, t.key, "tuple key");
+  t.mimetype = r.str8("mimetype");
+  const auto encoding = r.u8("encoding");
+  if (r.ok() && encoding > 1) r.fail("unknown encoding " + std::to_string(encoding));
+  t.encoding = static_cast<Encoding>(encoding);
+  t.ts_write = fromMicros(r.i64("ts_write"));
+  t.ts_user = fromMicros(r.i64("ts_user"));
+  t.ts_expire = fromMicros(r.i64("ts_expire"));
+  t.seqno = r.u64("seqno");
+  const auto size = r.u32("data length");
+  if (r.ok() && size > maxDataBytes) {
+    r.fail("data of " + std::to_string(size) + " bytes exceeds the limit of " +
+           std::to_string(maxDataBytes));
+  }
+  t.data = r.bytes(size, "data");
+  return t;
+}
+
+void beginFrame(std::string& out, MessageType type, std::size_t& start) {
+  start = out.size();
+  out.append(4, '\0');
+  out.push_back(static_cast<char>(type));
+}
+
+void endFrame(std::string& out, std::size_t start) {
+  const auto length = static_cast<std::uint32_t>(out.size() - start - 4);
+  for (int i = 0; i < 4; ++i) out[start + i] = static_cast<char>(length >> (24 - 8 * i));
+}
+
+struct LinkEncoder {
+  std::string& out;
+  void operator()(const Hello& m) {
+    std::size_t start;
+    beginFrame(out, MessageType::Hello, start);
+    Writer w(out);
+    w.u32(kMagic);
+    w.u16(m.version);
+    w.str8(m.ecology);
+    w.i32(m.id);
+    w.u64(m.incarnation);
+    w.str8(m.name);
+    w.u16(m.listenPort);
+    w.u32(m.capabilities);
+    w.str16(m.auth);
+    endFrame(out, start);
+  }
+  void operator()(const Ping& m) { nonce(MessageType::Ping, m.nonce); }
+  void operator()(const Pong& m) { nonce(MessageType::Pong, m.nonce); }
+  void operator()(const Routes& m) {
+    std::size_t start;
+    beginFrame(out, MessageType::Routes, start);
+    Writer w(out);
+    const auto count = std::min<std::size_t>(m.entries.size(), 65535);
+    w.u16(static_cast<std::uint16_t>(count));
+    for (std::size_t i = 0; i < count; ++i) {
+      const auto& e = m.entries[i];
+      w.i32(e.id);
+      w.u8(e.hops);
+      w.u64(e.incarnation);
+      w.str8(e.name);
+    }
+    endFrame(out, start);
+  }
+  void operator()(const IdTaken& m) {
+    std::size_t start;
+    beginFrame(out, MessageType::IdTaken, start);
+    Writer w(out);
+    w.i32(m.id);
+    w.u64(m.incarnation);
+    endFrame(out, start);
+  }
+  void nonce(MessageType type, std::uint64_t value) {
+    std::size_t start;
+    beginFrame(out, type, start);
+    Writer(out).u64(value);
+    endFrame(out, start);
+  }
+};
+
+MessageType typeOf(const RoutedBody& body) {
+  struct {
+    MessageType operator()(const Subscribe&) { return MessageType::Subscribe; }
+    MessageType operator()(const Unsubscribe&) { return MessageType::Unsubscribe; }
+    MessageType operator()(const TupleUpdate&) { return MessageType::TupleUpdate; }
+    MessageType operator()(const TupleDeleted&) { return MessageType::TupleDeleted; }
+    MessageType operator()(const Write&) { return MessageType::Write; }
+    MessageType operator()(const WriteResult&) { return MessageType::WriteResult; }
+  } visitor;
+  return std::visit(visitor, body);
+}
+
+struct BodyEncoder {
+  Writer& w;
+  void operator()(const Subscribe& m) {
+    w.u64(m.subscription);
+    w.u32(m.leaseMs);
+    w.u8(m.owner ? 1 : 0);
+    w.i32(m.owner.value_or(0));
+    w.str16(m.keyPattern);
+  }
+  void operator()(const Unsubscribe& m) { w.u64(m.subscription); }
+  void operator()(const TupleUpdate& m) {
+    w.u64(m.ownerIncarnation);
+    writeTuple(w, m.tuple);
+  }
+  void operator()(const TupleDeleted& m) {
+    w.u64(m.ownerIncarnation);
+    w.i32(m.owner);
+    w.str16(m.key);
+    w.u64(m.seqno);
+  }
+  void operator()(const Write& m) {
+    w.u64(m.request);
+    w.u8(static_cast<std::uint8_t>(m.op));
+    w.u8(m.ifSeqno ? 1 : 0);
+    w.u64(m.ifSeqno.value_or(0));
+    w.i64(m.ttlMicros);
+    writeTuple(w, m.tuple);
+  }
+  void operator()(const WriteResult& m) {
+    w.u64(m.request);
+    w.u8(m.status);
+    w.u64(m.seqno);
+    w.str16(m.message);
+  }
+};
+
+void writeEnvelope(Writer& w, const Envelope& e) {
+  w.i32(e.source);
+  w.i32(e.destination);
+  w.u8(e.ttl);
+}
+
+LinkMessage decodeLink(MessageType type, Reader& r) {
+  switch (type) {
+    case MessageType::Hello: {
+      Hello m;
+      if (r.u32("magic") != kMagic && r.ok()) r.fail("bad magic");
+      m.version = r.u16("version");
+      m.ecology = r.str8("ecology");
+      m.id = r.id("PEIS id");
+      m.incarnation = r.u64("incarnation");
+      m.name = r.str8("name");
+      m.listenPort = r.u16("listen port");
+      m.capabilities = r.u32("capabilities");
+      m.auth = r.str16("auth");
+      if (r.ok() && m.ecology.empty()) r.fail("empty ecology name");
+      if (r.ok() && !m.name.empty() && nameProblem(m.name)) r.fail("bad PEIS name");
+      return m;
+    }
+    case MessageType::Ping: return Ping{r.u64("nonce")};
+    case MessageType::Pong: return Pong{r.u64("nonce")};
+    case MessageType::Routes: {
+      Routes m;
+      const auto count = r.u16("route count");
+      for (std::uint16_t i = 0; i < count && r.ok(); ++i) {
+        RouteEntry e;
+        e.id = r.id("route id");
+        e.hops = r.u8("hops");
+        e.incarnation = r.u64("incarnation");
+        e.name = r.str8("route name");
+        if (r.ok() && !e.name.empty() && nameProblem(e.name)) r.fail("bad PEIS name in route");
+        m.entries.push_back(std::move(e));
+      }
+      return m;
+    }
+    default: {
+      IdTaken m;
+      m.id = r.id("taken id");
+      m.incarnation = r.u64("incarnation");
+      return m;
+    }
+  }
+}
+
+RoutedBody decodeBody(MessageType type, Reader& r, std::size_t maxDataBytes) {
+  switch (type) {
+    case MessageType::Subscribe: {
+      Subscribe m;
+      m.subscription = r.u64("subscription");
+      m.leaseMs = r.u32("lease");
+      const auto hasOwner = r.u8("owner flag");
+      const auto owner = r.i32("owner");
+      if (r.ok() && hasOwner > 1) r.fail("bad owner flag");
+      if (r.ok() && hasOwner) {
+        if (!isValidPeisId(owner)) r.fail("invalid subscription owner");
+        m.owner = owner;
+      }
+      m.keyPattern = r.str16("key pattern");
+      if (r.ok()) {
+        if (auto problem = keyPatternProblem(m.keyPattern)) r.fail("bad key pattern: " + *problem);
+      }
+      return m;
+    }
+    case MessageType::Unsubscribe: return Unsubscribe{r.u64("subscription")};
+    case MessageType::TupleUpdate: {
+      TupleUpdate m;
+      m.ownerIncarnation = r.u64("incarnation");
+      m.tuple = readTuple(r, maxDataBytes);
+      return m;
+    }
+    case MessageType::TupleDeleted: {
+      TupleDeleted m;
+      m.ownerIncarnation = r.u64("incarnation");
+      m.owner = r.id("owner");
+      m.key = r.str16("key");
+      checkKey(r, m.key, "key");
+      m.seqno = r.u64("seqno");
+      return m;
+    }
+    case MessageType::Write: {
+      Write m;
+      m.request = r.u64("request");
+      const auto op = r.u8("op");
+      if (r.ok() && op > 2) r.fail("unknown write op " + std::to_string(op));
+      m.op = static_cast<WriteOp>(op);
+      const auto hasIf = r.u8("if-seqno flag");
+      const auto ifSeqno = r.u64("if-seqno");
+      if (r.ok() && hasIf > 1) r.fail("bad if-seqno flag");
+      if (hasIf == 1) m.ifSeqno = ifSeqno;
+      m.ttlMicros = r.i64("ttl");
+      if (r.ok() && m.ttlMicros < 0) r.fail("negative ttl");
+      m.tuple = readTuple(r, maxDataBytes);
+      return m;
+    }
+    default: {
+      WriteResult m;
+      m.request = r.u64("request");
+      m.status = r.u8("status");
+      m.seqno = r.u64("seqno");
+      m.message = r.str16("message");
+      return m;
+    }
+  }
+}
+
+bool knownType(std::uint8_t type) {
+  return (type >= 1 && type <= 5) || (type >= 16 && type <= 21);
+}
+
+}  // namespace
+
+void encode(const LinkMessage& message, std::string& out) {
+  std::visit(LinkEncoder{out}, message);
+}
+
+void encode(const RoutedMessage& message, std::string& out) {
+  std::size_t start;
+  beginFrame(out, typeOf(message.body), start);
+  Writer w(out);
+  writeEnvelope(w, message.envelope);
+  std::visit(BodyEncoder{w}, message.body);
+  endFrame(out, start);
+}
+
+std::string encodeFrame(const RoutedMessage& message) {
+  std::string out;
+  encode(message, out);
+  return out;
+}
+
+void reEnvelope(std::string& frame, const Envelope& envelope) {
+  std::string header;
+  Writer w(header);
+  writeEnvelope(w, envelope);
+  frame.replace(kFrameHeaderBytes + 1, header.size(), header);
+}
+
+std::uint32_t frameLength(std::string_view bytes) {
+  std::uint32_t v = 0;
+  for (int i = 0; i < 4; ++i) v = (v << 8) | static_cast<std::uint8_t>(bytes[i]);
+  return v;
+}
+
+DecodeResult decode(std::string_view frame, std::size_t maxDataBytes) {
+  if (frame.empty()) return {std::nullopt, "empty frame"};
+  const auto rawType = static_cast<std::uint8_t>(frame[0]);
+  if (!knownType(rawType)) return {std::nullopt, "unknown message type " + std::to_string(rawType)};
+  const auto type = static_cast<MessageType>(rawType);
+  Reader r(frame.substr(1));
+  Message message;
+  if (isRouted(type)) {
+    RoutedMessage routed;
+    routed.envelope.source = r.id("source");
+    routed.envelope.destination = r.id("destination");
+    routed.envelope.ttl = r.u8("ttl");
+    routed.body = decodeBody(type, r, maxDataBytes);
+    message = std::move(routed);
+  } else {
+    message = decodeLink(type, r);
+  }
+  r.end();
+  if (!r.ok()) return {std::nullopt, r.error()};
+  return {std::move(message), {}};
+}
+
+}  // namespace peis::wire

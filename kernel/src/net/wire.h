@@ -1,0 +1,131 @@
+// Encoding and decoding of wire frames (layout in wire_format.h and
+// docs/protocol.md). Pure functions on bytes: the decoder checks every
+// length and field and returns a reason instead of ever reading past the
+// input or accepting an invalid value.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include "net/wire_format.h"
+#include "peis/tuple.h"
+
+namespace peis::wire {
+
+struct Hello {
+  std::uint16_t version = kVersion;
+  std::string ecology;
+  PeisId id = 0;
+  std::uint64_t incarnation = 0;
+  std::string name;
+  std::uint16_t listenPort = 0;
+  std::uint32_t capabilities = 0;
+  std::string auth;
+  bool operator==(const Hello&) const = default;
+};
+struct Ping {
+  std::uint64_t nonce = 0;
+  bool operator==(const Ping&) const = default;
+};
+struct Pong {
+  std::uint64_t nonce = 0;
+  bool operator==(const Pong&) const = default;
+};
+struct RouteEntry {
+  PeisId id = 0;
+  std::uint8_t hops = 0;
+  std::uint64_t incarnation = 0;
+  std::string name;
+  bool operator==(const RouteEntry&) const = default;
+};
+struct Routes {
+  std::vector<RouteEntry> entries;
+  bool operator==(const Routes&) const = default;
+};
+struct IdTaken {
+  PeisId id = 0;
+  std::uint64_t incarnation = 0;
+  bool operator==(const IdTaken&) const = default;
+};
+
+struct Envelope {
+  PeisId source = 0;
+  PeisId destination = 0;
+  std::uint8_t ttl = kDefaultTtl;
+  bool operator==(const Envelope&) const = default;
+};
+struct Subscribe {
+  std::uint64_t subscription = 0;
+  std::uint32_t leaseMs = 0;
+  std::optional<PeisId> owner;
+  std::string keyPattern;
+  bool operator==(const Subscribe&) const = default;
+};
+struct Unsubscribe {
+  std::uint64_t subscription = 0;
+  bool operator==(const Unsubscribe&) const = default;
+};
+struct TupleUpdate {
+  std::uint64_t ownerIncarnation = 0;
+  Tuple tuple;
+  bool operator==(const TupleUpdate&) const = default;
+};
+struct TupleDeleted {
+  std::uint64_t ownerIncarnation = 0;
+  PeisId owner = 0;
+  std::string key;
+  std::uint64_t seqno = 0;
+  bool operator==(const TupleDeleted&) const = default;
+};
+enum class WriteOp : std::uint8_t { Set = 0, Append = 1, Erase = 2 };
+struct Write {
+  std::uint64_t request = 0;
+  WriteOp op = WriteOp::Set;
+  std::optional<std::uint64_t> ifSeqno;
+  std::int64_t ttlMicros = 0;
+  Tuple tuple;  // owner, key, data, mimetype, encoding, ts_user, ts_expire
+  bool operator==(const Write&) const = default;
+};
+struct WriteResult {
+  std::uint64_t request = 0;
+  std::uint8_t status = 0;  // 0 ok, else ErrorCode + 1
+  std::uint64_t seqno = 0;
+  std::string message;
+  bool operator==(const WriteResult&) const = default;
+};
+
+using LinkMessage = std::variant<Hello, Ping, Pong, Routes, IdTaken>;
+using RoutedBody =
+    std::variant<Subscribe, Unsubscribe, TupleUpdate, TupleDeleted, Write, WriteResult>;
+struct RoutedMessage {
+  Envelope envelope;
+  RoutedBody body;
+  bool operator==(const RoutedMessage&) const = default;
+};
+using Message = std::variant<LinkMessage, RoutedMessage>;
+
+// Appends one whole frame (length prefix included) to `out`.
+void encode(const LinkMessage& message, std::string& out);
+void encode(const RoutedMessage& message, std::string& out);
+// The frame for a routed body with its envelope; the body bytes are built
+// once and can be re-enveloped per destination with reEnvelope().
+std::string encodeFrame(const RoutedMessage& message);
+// Rewrites the envelope of an encoded routed frame in place.
+void reEnvelope(std::string& frame, const Envelope& envelope);
+
+struct DecodeResult {
+  std::optional<Message> message;
+  std::string error;  // why the frame was rejected, when message is empty
+};
+// Decodes the bytes of one frame after the u32 length field (type + body).
+// `maxDataBytes` bounds tuple data.
+DecodeResult decode(std::string_view frame, std::size_t maxDataBytes);
+
+// Reads the u32 length prefix at the start of `bytes` (needs 4 bytes).
+std::uint32_t frameLength(std::string_view bytes);
+
+}  // namespace peis::wire

@@ -1,0 +1,72 @@
+// The PEIS wire protocol, version 1: every frame's byte layout. This header
+// is the code-side statement of docs/protocol.md (which is normative); the
+// encoder and decoder in wire.cpp follow it field by field.
+//
+// All integers are big-endian (network byte order); no struct is ever
+// copied to or from the wire. Strings carry their length first:
+//   str8  = u8 length, bytes        str16 = u16 length, bytes
+//   bytes32 = u32 length, bytes (tuple data, at most the frame limit)
+//
+// Frame (TCP link):
+//   u32 length      bytes after this field (1 .. kMaxFrameBytes)
+//   u8  type        MessageType
+//   ...             the body of that type
+//
+// Link messages (between two directly linked PEIS):
+//   Hello   u32 magic "PEIS" | u16 version | str8 ecology | i32 id |
+//           u64 incarnation | str8 name | u16 listen port | u32 capabilities |
+//           str16 auth (empty until authentication exists)
+//   Ping    u64 nonce          Pong  u64 nonce
+//   Routes  u16 count | count x (i32 id | u8 hops | u64 incarnation | str8 name)
+//   IdTaken i32 id | u64 incarnation  (your id is already used: re-pick)
+//
+// Routed messages start with an envelope: i32 source | i32 destination | u8 ttl
+//   Subscribe    u64 subscription | u32 lease ms | u8 has owner | i32 owner |
+//                str16 key pattern
+//   Unsubscribe  u64 subscription
+//   TupleUpdate  u64 owner incarnation | tuple
+//   TupleDeleted u64 owner incarnation | i32 owner | str16 key | u64 seqno
+//   Write        u64 request | u8 op (0 set, 1 append, 2 erase) |
+//                u8 has if-seqno | u64 if-seqno | i64 ttl us | tuple
+//   WriteResult  u64 request | u8 status (0 ok, else ErrorCode + 1) |
+//                u64 seqno | str16 message
+//
+// tuple = i32 owner | i32 creator | str16 key | str8 mimetype | u8 encoding |
+//         i64 ts_write | i64 ts_user | i64 ts_expire (microseconds since the
+//         Unix epoch, 0 = unset) | u64 seqno | bytes32 data
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+
+namespace peis::wire {
+
+inline constexpr std::uint32_t kMagic = 0x50454953;  // "PEIS"
+inline constexpr std::uint16_t kVersion = 1;
+inline constexpr std::size_t kFrameHeaderBytes = 4;
+// Largest frame: the largest data any PEIS accepts plus room for the fields.
+inline constexpr std::size_t kMaxFrameOverhead = 64 * 1024;
+inline constexpr std::uint8_t kDefaultTtl = 32;
+
+enum class MessageType : std::uint8_t {
+  Hello = 1,
+  Ping = 2,
+  Pong = 3,
+  Routes = 4,
+  IdTaken = 5,
+  Subscribe = 16,
+  Unsubscribe = 17,
+  TupleUpdate = 18,
+  TupleDeleted = 19,
+  Write = 20,
+  WriteResult = 21,
+};
+
+inline constexpr bool isRouted(MessageType type) {
+  return static_cast<std::uint8_t>(type) >= 16;
+}
+
+// Capability flags in Hello.
+inline constexpr std::uint32_t kCapabilityCoalescing = 1u << 0;
+
+}  // namespace peis::wire
