@@ -6,6 +6,7 @@
 #include <pwd.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <boost/asio/executor_work_guard.hpp>
 #include <boost/asio/io_context.hpp>
@@ -15,6 +16,7 @@
 #include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
+#include <future>
 #include <iostream>
 #include <map>
 #include <mutex>
@@ -22,7 +24,9 @@
 #include <thread>
 
 #include "log.h"
+#include "net/network.h"
 #include "peis/error.h"
+#include "replication.h"
 #include "tuple_space.h"
 
 namespace peis {
@@ -59,6 +63,18 @@ std::string hostName() {
   return buffer;
 }
 
+net::DiscoveryScope discoveryScope(const Options& options) {
+  if (!options.discovery) return net::DiscoveryScope::Off;
+  const char* env = std::getenv("PEIS_DISCOVERY_SCOPE");
+  return env && *env ? net::parseDiscoveryScope(env) : net::DiscoveryScope::Loopback;
+}
+
+std::string joinIds(const std::vector<PeisId>& ids) {
+  std::string text;
+  for (auto id : ids) text += (text.empty() ? "" : " ") + std::to_string(id);
+  return text;
+}
+
 std::string userName() {
   if (const char* user = std::getenv("USER"); user && *user) return user;
   if (const passwd* entry = getpwuid(getuid())) return entry->pw_name;
@@ -72,18 +88,35 @@ const char* versionString() { return "0.1.0"; }
 
 struct Kernel::Impl {
   Options options;
-  PeisId id;
+  std::atomic<PeisId> id;
   std::string name;
   asio::io_context io;
   asio::executor_work_guard<asio::io_context::executor_type> work{io.get_executor()};
   std::thread thread;
   std::thread::id threadId;
 
-  mutable std::mutex mu;  // guards everything below down to `waiters`
+  std::uint64_t incarnation = static_cast<std::uint64_t>(systemNow().time_since_epoch().count());
+
+  mutable std::mutex mu;  // guards everything below down to `peerSnapshot`
   mutable std::condition_variable changed;
   TupleSpace space;
+  Replication replication;
   bool drainScheduled = false;
+  bool flushScheduled = false;
   mutable int waiters = 0;
+  std::vector<PeerInfo> peerSnapshot;
+  std::string publishedSubscribers;
+
+  // Kernel thread only.
+  std::unique_ptr<net::Network> network;
+  struct PendingWrite {
+    WriteDone done;
+    std::shared_ptr<asio::steady_timer> timer;
+    PeisId owner = 0;
+  };
+  std::map<std::uint64_t, PendingWrite> pendingWrites;
+  std::uint64_t nextRequest = 1;
+  asio::steady_timer leaseTimer{io};
 
   std::mutex timersMu;
   struct Timer {
@@ -91,6 +124,7 @@ struct Kernel::Impl {
     std::function<void()> fn;
     std::chrono::milliseconds period{0};
     std::atomic<bool> active{true};
+    TimerHandle handle = 0;
   };
   std::map<TimerHandle, std::shared_ptr<Timer>> timers;
   TimerHandle nextTimer = 1;
@@ -108,7 +142,15 @@ struct Kernel::Impl {
       : options(std::move(opts)),
         id(pickedId),
         name(pickName(options, id)),
-        space(id, systemNow, SpaceLimits{options.maxDataBytes}) {}
+        space(id, systemNow, SpaceLimits{options.maxDataBytes}),
+        replication(space, incarnation, options.subscriptionLease) {
+    space.setObserver(
+        [this](EventKind kind, const TuplePtr& t) { replication.onLocalEvent(kind, t); });
+    space.setRetargetObserver(
+        [this](CallbackId id, const std::optional<TupleRef>&, const std::optional<TupleRef>& to) {
+          replication.onRetarget(id, to);
+        });
+  }
 
   // Runs `fn` on the space under the lock, then wakes the kernel thread and
   // blocked readers as needed.
@@ -121,6 +163,10 @@ struct Kernel::Impl {
   }
 
   void afterMutation() {  // mu held
+    if (!flushScheduled && replication.hasOutgoing()) {
+      flushScheduled = true;
+      asio::post(io, [this] { flush(); });
+    }
     if (!drainScheduled && (space.hasPendingDeliveries() || space.allKeysDirty())) {
       drainScheduled = true;
       asio::post(io, [this] { drain(); });
@@ -144,15 +190,18 @@ struct Kernel::Impl {
           return;
         }
       }
-      try {
-        delivery->run();
-      } catch (const std::exception& e) {
+      // Each throwing callback is counted; the others for the event still run.
+      delivery->run([&](std::exception_ptr error) {
         ++callbackErrors;
-        log::error(id, "a callback for " + delivery->tuple()->fullName() + " threw: " + e.what());
-      } catch (...) {
-        ++callbackErrors;
-        log::error(id, "a callback for " + delivery->tuple()->fullName() + " threw");
-      }
+        const auto what = delivery->tuple() ? delivery->tuple()->fullName() : std::string("?");
+        try {
+          std::rethrow_exception(error);
+        } catch (const std::exception& e) {
+          log::error(id, "a callback for " + what + " threw: " + e.what());
+        } catch (...) {
+          log::error(id, "a callback for " + what + " threw");
+        }
+      });
     }
     asio::post(io, [this] { drain(); });  // more to do: yield to timers first
   }
@@ -192,11 +241,20 @@ struct Kernel::Impl {
     timer->timer->expires_after(delay);
     timer->timer->async_wait([this, timer](const boost::system::error_code& ec) {
       if (ec || !timer->active) return;
+      if (timer->period.count() == 0) {
+        // A one-shot timer leaves the table as it fires (it would stay there
+        // forever otherwise); if cancelTimer() took it first, it does not run.
+        std::lock_guard lock(timersMu);
+        if (timers.erase(timer->handle) == 0) return;
+      }
       try {
         timer->fn();
       } catch (const std::exception& e) {
         ++callbackErrors;
         log::error(id, std::string("a timer callback threw: ") + e.what());
+      } catch (...) {  // anything else would end the kernel thread (std::terminate)
+        ++callbackErrors;
+        log::error(id, "a timer callback threw");
       }
       if (timer->period.count() > 0 && timer->active) startTimer(timer, timer->period);
     });
@@ -212,10 +270,267 @@ struct Kernel::Impl {
     {
       std::lock_guard lock(timersMu);
       handle = nextTimer++;
+      timer->handle = handle;
       timers.emplace(handle, timer);
     }
     asio::post(io, [this, timer, delay] { startTimer(timer, delay); });
     return handle;
+  }
+
+  // --- network glue (kernel thread) -------------------------------------------
+  void flush() {
+    std::vector<Replication::Outgoing> outgoing;
+    {
+      std::lock_guard lock(mu);
+      flushScheduled = false;
+      outgoing = replication.takeOutbox();
+    }
+    if (!network) return;
+    for (auto& out : outgoing) {
+      if (out.update) {
+        network->sendUpdate(out.destination, incarnation, *out.update);
+      } else {
+        network->send(wire::RoutedMessage{wire::Envelope{0, out.destination, wire::kDefaultTtl},
+                                          std::move(*out.body)});
+      }
+    }
+  }
+
+  void refreshMembershipTuples() {  // mu held
+    std::vector<PeisId> ids, linked;
+    for (const auto& peer : peerSnapshot) {
+      if (peer.hops > 0) ids.push_back(peer.id);
+      if (peer.hops == 1) linked.push_back(peer.id);
+    }
+    space.setKernelTuple(special::kPeers, joinIds(ids));
+    space.setKernelTuple(special::kLinks, joinIds(linked));
+  }
+
+  void refreshSubscribersTuple() {  // mu held
+    auto text = joinIds(replication.subscribers());
+    if (text == publishedSubscribers) return;
+    publishedSubscribers = text;
+    space.setKernelTuple(special::kSubscribers, std::move(text));
+  }
+
+  void snapshotPeers() {  // mu held, kernel thread
+    peerSnapshot.clear();
+    for (const auto& peer : network->peers()) {
+      peerSnapshot.push_back(PeerInfo{peer.id, peer.name, peer.hops, peer.incarnation});
+    }
+  }
+
+  void onPeerUp(const net::PeerInfo& peer) {
+    std::lock_guard lock(mu);
+    log::debug(id, "PEIS " + std::to_string(peer.id) + " '" + peer.name + "' reachable in " +
+                       std::to_string(peer.hops) + " hop(s)");
+    replication.onPeerUp(peer.id, peer.incarnation);
+    snapshotPeers();
+    refreshMembershipTuples();
+    afterMutation();
+  }
+
+  void onPeerDown(PeisId peer) {
+    {
+      std::lock_guard lock(mu);
+      log::debug(id, "PEIS " + std::to_string(peer) + " is gone");
+      replication.onPeerDown(peer);
+      snapshotPeers();
+      refreshMembershipTuples();
+      refreshSubscribersTuple();
+      afterMutation();
+    }
+    std::vector<std::uint64_t> failed;
+    for (const auto& [request, pending] : pendingWrites) {
+      if (pending.owner == peer) failed.push_back(request);
+    }
+    for (auto request : failed) {
+      completeWrite(
+          request, Error(ErrorCode::Unreachable, "PEIS " + std::to_string(peer) + " went away"), 0);
+    }
+  }
+
+  void onMessage(wire::RoutedMessage&& message) {
+    const auto source = message.envelope.source;
+    std::visit(
+        [&](auto&& body) {
+          using T = std::decay_t<decltype(body)>;
+          if constexpr (std::is_same_v<T, wire::WriteResult>) {
+            if (body.status == 0) {
+              completeWrite(body.request, std::nullopt, body.seqno);
+            } else {
+              const auto code = static_cast<ErrorCode>(
+                  std::min<int>(body.status - 1, static_cast<int>(ErrorCode::Stopped)));
+              completeWrite(body.request,
+                            Error(code, "PEIS " + std::to_string(source) + ": " + body.message), 0);
+            }
+          } else {
+            std::lock_guard lock(mu);
+            if constexpr (std::is_same_v<T, wire::Subscribe>) {
+              replication.onSubscribe(source, body, std::chrono::steady_clock::now());
+              refreshSubscribersTuple();
+            } else if constexpr (std::is_same_v<T, wire::Unsubscribe>) {
+              replication.onUnsubscribe(source, body.subscription);
+              refreshSubscribersTuple();
+            } else if constexpr (std::is_same_v<T, wire::TupleUpdate>) {
+              if (replication.onUpdate(source, body) && body.tuple.ts_expire != kNoTime) {
+                noteExpiry(body.tuple);
+              }
+            } else if constexpr (std::is_same_v<T, wire::TupleDeleted>) {
+              replication.onDeleted(source, body);
+            } else if constexpr (std::is_same_v<T, wire::Write>) {
+              replication.onWrite(source, body);
+            }
+            afterMutation();
+          }
+        },
+        std::move(message.body));
+  }
+
+  PeisId repickId() {
+    std::lock_guard lock(mu);
+    std::random_device device;
+    std::uniform_int_distribution<PeisId> pick(1000, kMaxPeisId);
+    const PeisId old = id;
+    id = pick(device);
+    space.changeSelf(id);
+    space.setKernelTuple(special::kId, std::to_string(id.load()));
+    log::warn(id, "re-picked id " + std::to_string(id.load()) + " (" + std::to_string(old) +
+                      " belongs to a PEIS that joined earlier)");
+    afterMutation();
+    return id;
+  }
+
+  void remoteWrite(wire::WriteOp op, PeisId owner, std::string_view key, std::string data,
+                   std::optional<std::uint64_t> ifSeqno, const WriteOptions& writeOptions,
+                   WriteDone done) {
+    validateKey(key);
+    if (!isValidPeisId(owner)) {
+      throw Error(ErrorCode::InvalidArgument, "invalid owner id " + std::to_string(owner));
+    }
+    if (data.size() > options.maxDataBytes) {
+      throw Error(ErrorCode::TooLarge, "data is " + std::to_string(data.size()) +
+                                           " bytes; this PEIS sends at most " +
+                                           std::to_string(options.maxDataBytes));
+    }
+    wire::Write write;
+    write.op = op;
+    write.ifSeqno = ifSeqno;
+    write.ttlMicros = writeOptions.ttl.count();
+    write.tuple.owner = owner;
+    write.tuple.creator = id;
+    write.tuple.key = std::string(key);
+    write.tuple.data = std::move(data);
+    write.tuple.mimetype = writeOptions.mimetype;
+    write.tuple.encoding = writeOptions.encoding;
+    write.tuple.ts_user = writeOptions.ts_user;
+    write.tuple.ts_expire = writeOptions.ts_expire;
+    asio::post(io, [this, write = std::move(write), done = std::move(done)]() mutable {
+      const auto owner = write.tuple.owner;
+      if (!network || !network->reachable(owner)) {
+        if (done) {
+          done(Error(ErrorCode::Unreachable, "PEIS " + std::to_string(owner) +
+                                                 " is not reachable from PEIS " +
+                                                 std::to_string(id.load())),
+               0);
+        }
+        return;
+      }
+      write.request = nextRequest++;
+      const auto request = write.request;
+      auto timer = std::make_shared<asio::steady_timer>(io, options.writeTimeout);
+      pendingWrites[request] = PendingWrite{std::move(done), timer, owner};
+      timer->async_wait([this, request, owner](const boost::system::error_code& ec) {
+        if (ec) return;
+        completeWrite(
+            request,
+            Error(ErrorCode::Timeout, "PEIS " + std::to_string(owner) + " did not answer within " +
+                                          std::to_string(options.writeTimeout.count()) + " ms"),
+            0);
+      });
+      if (!network->send(wire::RoutedMessage{wire::Envelope{0, owner, wire::kDefaultTtl}, write})) {
+        completeWrite(
+            request, Error(ErrorCode::Unreachable, "no route to PEIS " + std::to_string(owner)), 0);
+      }
+    });
+  }
+
+  void completeWrite(std::uint64_t request, const std::optional<Error>& error,
+                     std::uint64_t seqno) {
+    auto it = pendingWrites.find(request);
+    if (it == pendingWrites.end()) return;  // already timed out
+    auto pending = std::move(it->second);
+    pendingWrites.erase(it);
+    pending.timer->cancel();
+    if (!pending.done) return;
+    try {
+      pending.done(error, seqno);
+    } catch (const std::exception& e) {
+      ++callbackErrors;
+      log::error(id, std::string("a write completion threw: ") + e.what());
+    }
+  }
+
+  void leaseLoop() {
+    leaseTimer.expires_after(options.subscriptionLease / 3);
+    leaseTimer.async_wait([this](const boost::system::error_code& ec) {
+      if (ec) return;
+      {
+        std::lock_guard lock(mu);
+        replication.renew();
+        if (replication.expireLeases(std::chrono::steady_clock::now())) refreshSubscribersTuple();
+        afterMutation();
+      }
+      leaseLoop();
+    });
+  }
+
+  void startNetwork() {  // kernel thread
+    net::NetworkConfig config;
+    config.ecology = options.ecology;
+    config.name = name;
+    config.port = options.port;
+    config.connect = options.connect;
+    config.discovery = discoveryScope(options);
+    config.discoveryPort = options.discoveryPort;
+    config.deadAfter = options.liveness;
+    config.pingPeriod = std::max(options.liveness / 4, std::chrono::milliseconds(25));
+    config.maxDataBytes = options.maxDataBytes;
+    net::Network::Events events;
+    events.onMessage = [this](wire::RoutedMessage&& m) { onMessage(std::move(m)); };
+    events.onPeerUp = [this](const net::PeerInfo& p) { onPeerUp(p); };
+    events.onPeerDown = [this](PeisId p) { onPeerDown(p); };
+    events.repickId = [this] { return repickId(); };
+    network = std::make_unique<net::Network>(io, config, id, incarnation, events);
+    network->start();
+    std::lock_guard lock(mu);
+    space.setKernelTuple(special::kPort, std::to_string(network->port()));
+    snapshotPeers();
+    leaseLoop();
+  }
+
+  void stopNetwork() {  // kernel thread
+    leaseTimer.cancel();
+    auto requests = pendingWrites;
+    for (const auto& [request, pending] : requests) {
+      completeWrite(request, Error(ErrorCode::Stopped, "the kernel is shutting down"), 0);
+    }
+    if (network) network->stop();
+  }
+
+  // Runs `fn` on the kernel thread and waits for it (not from the kernel thread).
+  template <typename F>
+  void onKernelThreadAndWait(F&& fn) {
+    std::promise<void> done;
+    asio::post(io, [&] {
+      try {
+        fn();
+        done.set_value();
+      } catch (...) {
+        done.set_exception(std::current_exception());
+      }
+    });
+    done.get_future().get();
   }
 
   void publishSpecialTuples() {
@@ -228,6 +543,9 @@ struct Kernel::Impl {
       s.setKernelTuple(special::kSubscribers, "");
       s.setKernelTuple(special::kLinks, "");
       s.setKernelTuple(special::kDoQuit, "no");
+      s.setKernelTuple(special::kPeers, "");
+      s.setKernelTuple(special::kPort, "0");
+      s.setKernelTuple(special::kStarted, std::to_string(incarnation));
       s.addCallback(
           Pattern::exact(id, special::kDoQuit), kOnChange, [this](EventKind, const Tuple& t) {
             if (t.data == "yes") {
@@ -249,6 +567,8 @@ Kernel::Kernel(Options options) {
   impl_->threadId = impl_->thread.get_id();
   try {
     impl_->publishSpecialTuples();
+    if (impl_->options.network)
+      impl_->onKernelThreadAndWait([impl = impl_.get()] { impl->startNetwork(); });
   } catch (...) {
     impl_->work.reset();
     impl_->io.stop();
@@ -279,6 +599,7 @@ Options parseOrExit(int& argc, char** argv) {
 Kernel::Kernel(int& argc, char** argv) : Kernel(parseOrExit(argc, argv)) {}
 
 Kernel::~Kernel() {
+  impl_->onKernelThreadAndWait([impl = impl_.get()] { impl->stopNetwork(); });
   {
     std::lock_guard lock(impl_->timersMu);
     for (auto& [handle, timer] : impl_->timers) timer->active = false;
@@ -298,13 +619,127 @@ Tuple Kernel::set(std::string_view key, std::string data, const WriteOptions& op
   return *tuple;
 }
 
+namespace {
+// Waits for a remote write's completion; throws its error.
+std::uint64_t awaitWrite(const std::function<void(WriteDone)>& start) {
+  std::promise<std::pair<std::optional<Error>, std::uint64_t>> result;
+  start([&result](const std::optional<Error>& error, std::uint64_t seqno) {
+    result.set_value({error, seqno});
+  });
+  auto [error, seqno] = result.get_future().get();
+  if (error) throw *error;
+  return seqno;
+}
+
+void refuseOnKernelThread(const Kernel& kernel, const char* what) {
+  if (kernel.onKernelThread()) {
+    throw Error(ErrorCode::WouldDeadlock,
+                std::string("a blocking ") + what +
+                    " on the kernel thread (in a callback) would stop the kernel; use setAsync");
+  }
+}
+}  // namespace
+
 Tuple Kernel::set(PeisId owner, std::string_view key, std::string data,
                   const WriteOptions& options) {
-  if (owner == impl_->id) return set(key, std::move(data), options);
-  validateKey(key);
-  throw Error(ErrorCode::Unreachable, "cannot write " + fullName(owner, key) + ": PEIS " +
-                                          std::to_string(owner) +
-                                          " is not reachable (no link to it)");
+  if (owner == id()) return set(key, std::move(data), options);
+  refuseOnKernelThread(*this, "remote set");
+  Tuple tuple;
+  tuple.owner = owner;
+  tuple.creator = id();
+  tuple.key = std::string(key);
+  tuple.data = data;
+  tuple.mimetype = options.mimetype;
+  tuple.encoding = options.encoding;
+  tuple.ts_user = options.ts_user;
+  tuple.seqno = awaitWrite([&](WriteDone done) {
+    impl_->remoteWrite(wire::WriteOp::Set, owner, key, std::move(data), std::nullopt, options,
+                       std::move(done));
+  });
+  return tuple;
+}
+
+void Kernel::setAsync(PeisId owner, std::string_view key, std::string data,
+                      const WriteOptions& options, WriteDone done) {
+  if (owner == id()) {
+    std::optional<Error> error;
+    std::uint64_t seqno = 0;
+    try {
+      seqno = set(key, std::move(data), options).seqno;
+    } catch (const Error& e) {
+      error = e;
+    }
+    if (done) post([done = std::move(done), error, seqno] { done(error, seqno); });
+    return;
+  }
+  impl_->remoteWrite(wire::WriteOp::Set, owner, key, std::move(data), std::nullopt, options,
+                     std::move(done));
+}
+
+Tuple Kernel::append(PeisId owner, std::string_view key, std::string_view data,
+                     std::optional<std::uint64_t> ifSeqno) {
+  if (owner == id()) return append(key, data, ifSeqno);
+  refuseOnKernelThread(*this, "remote append");
+  Tuple tuple;
+  tuple.owner = owner;
+  tuple.creator = id();
+  tuple.key = std::string(key);
+  tuple.seqno = awaitWrite([&](WriteDone done) {
+    impl_->remoteWrite(wire::WriteOp::Append, owner, key, std::string(data), ifSeqno, {},
+                       std::move(done));
+  });
+  return tuple;
+}
+
+bool Kernel::erase(PeisId owner, std::string_view key) {
+  if (owner == id()) return erase(key);
+  refuseOnKernelThread(*this, "remote erase");
+  return awaitWrite([&](WriteDone done) {
+           impl_->remoteWrite(wire::WriteOp::Erase, owner, key, "", std::nullopt, {},
+                              std::move(done));
+         }) != 0;
+}
+
+SubscriptionHandle Kernel::subscribe(const Pattern& pattern) {
+  return impl_->mutate([&](TupleSpace&) { return impl_->replication.subscribe(pattern); });
+}
+
+bool Kernel::unsubscribe(SubscriptionHandle handle) {
+  return impl_->mutate([&](TupleSpace&) { return impl_->replication.unsubscribe(handle); });
+}
+
+std::vector<PeerInfo> Kernel::peers() const {
+  std::lock_guard lock(impl_->mu);
+  if (impl_->peerSnapshot.empty()) return {PeerInfo{id(), impl_->name, 0, impl_->incarnation}};
+  return impl_->peerSnapshot;
+}
+
+std::uint16_t Kernel::port() const {
+  auto tuple = get(special::kPort);
+  return tuple ? static_cast<std::uint16_t>(std::stoul(tuple->data)) : 0;
+}
+
+NetworkStats Kernel::networkStats() const {
+  NetworkStats stats;
+  auto read = [&] {
+    if (!impl_->network) return;
+    const auto& c = impl_->network->counters();
+    stats = NetworkStats{c.framesIn,
+                         c.framesOut,
+                         c.malformedFrames,
+                         c.garbagePeersDisconnected,
+                         c.foreignEcologyRejected,
+                         c.unroutable,
+                         c.coalesced,
+                         c.idCollisions,
+                         c.malformedBeacons};
+  };
+  if (onKernelThread()) {
+    read();
+  } else {
+    impl_->onKernelThreadAndWait(read);
+  }
+  return stats;
 }
 
 Tuple Kernel::append(std::string_view key, std::string_view data,
@@ -350,6 +785,18 @@ std::optional<Tuple> Kernel::get(PeisId owner, std::string_view key,
                 "register a callback instead");
   }
   const auto deadline = std::chrono::steady_clock::now() + wait;
+  // A remote value arrives by subscription: hold one while waiting.
+  std::optional<SubscriptionHandle> subscription;
+  if (owner != id()) {
+    subscription = const_cast<Kernel*>(this)->subscribe(Pattern::exact(owner, key));
+  }
+  struct Unsubscribe {
+    const Kernel* kernel;
+    std::optional<SubscriptionHandle> handle;
+    ~Unsubscribe() {
+      if (handle) const_cast<Kernel*>(kernel)->unsubscribe(*handle);
+    }
+  } unsubscribe{this, subscription};
   std::unique_lock lock(impl_->mu);
   ++impl_->waiters;
   TuplePtr tuple;
@@ -358,6 +805,7 @@ std::optional<Tuple> Kernel::get(PeisId owner, std::string_view key,
     return tuple != nullptr;
   });
   --impl_->waiters;
+  lock.unlock();
   if (!tuple) return std::nullopt;
   return *tuple;
 }
@@ -374,8 +822,27 @@ std::vector<Tuple> Kernel::find(const Pattern& pattern) const {
 }
 
 PeisId Kernel::resolveOwner(std::string_view idOrName) const {
+  if (auto number = parsePeisId(idOrName)) return *number;
+  validateName(idOrName);
   std::lock_guard lock(impl_->mu);
-  return impl_->space.resolveOwner(idOrName);
+  auto ids = impl_->space.peisNamed(idOrName);
+  for (const auto& peer : impl_->peerSnapshot) {
+    if (peer.name == idOrName) ids.push_back(peer.id);
+  }
+  if (impl_->name == idOrName) ids.push_back(impl_->id);
+  std::sort(ids.begin(), ids.end());
+  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+  if (ids.empty()) {
+    throw Error(ErrorCode::NotFound, "no known PEIS is named '" + std::string(idOrName) + "'");
+  }
+  if (ids.size() > 1) {
+    std::string list;
+    for (auto id : ids) list += (list.empty() ? "" : ", ") + std::to_string(id);
+    throw Error(ErrorCode::AmbiguousName, "the name '" + std::string(idOrName) +
+                                              "' is ambiguous: it is carried by PEIS " + list +
+                                              "; use an id instead");
+  }
+  return ids.front();
 }
 
 CallbackHandle Kernel::onChange(const Pattern& pattern, TupleCallback fn) {
@@ -393,7 +860,10 @@ CallbackHandle Kernel::onDelete(const Pattern& pattern, TupleCallback fn) {
 }
 
 bool Kernel::removeCallback(CallbackHandle handle) {
-  return impl_->mutate([&](TupleSpace& s) { return s.removeCallback(handle); });
+  return impl_->mutate([&](TupleSpace& s) {
+    impl_->replication.onIndirectRemoved(handle);
+    return s.removeCallback(handle);
+  });
 }
 
 void Kernel::declareMeta(std::string_view metaKey) {
@@ -442,8 +912,10 @@ Tuple Kernel::setIndirect(PeisId owner, std::string_view metaKey, std::string da
 
 CallbackHandle Kernel::subscribeIndirect(PeisId owner, std::string_view metaKey, TupleCallback fn) {
   return impl_->mutate([&](TupleSpace& s) {
-    return s.addIndirectCallback(owner, metaKey, kOnChange,
-                                 [fn = std::move(fn)](EventKind, const Tuple& t) { fn(t); });
+    const auto handle = s.addIndirectCallback(
+        owner, metaKey, kOnChange, [fn = std::move(fn)](EventKind, const Tuple& t) { fn(t); });
+    impl_->replication.trackIndirectMeta(handle, TupleRef{owner, std::string(metaKey)});
+    return handle;
   });
 }
 
@@ -454,6 +926,9 @@ void Kernel::post(std::function<void()> fn) {
     } catch (const std::exception& e) {
       ++impl->callbackErrors;
       log::error(impl->id, std::string("a posted function threw: ") + e.what());
+    } catch (...) {
+      ++impl->callbackErrors;
+      log::error(impl->id, "a posted function threw");
     }
   });
 }

@@ -107,6 +107,13 @@ Options Options::fromArgs(int& argc, char** argv) {
     } else if (flag == "--peis-no-discovery") {
       if (hasValue) bad(flag, "takes no value");
       options.discovery = false;
+    } else if (flag == "--peis-discovery-port") {
+      options.discoveryPort = static_cast<std::uint16_t>(parseUnsigned(flag, needValue(), 65535));
+      if (options.discoveryPort == 0) bad(flag, "port 0 is not a port");
+    } else if (flag == "--peis-liveness-ms") {
+      const auto ms = parseUnsigned(flag, needValue(), 3600000);
+      if (ms < 100) bad(flag, "at least 100 ms");
+      options.liveness = std::chrono::milliseconds(ms);
     } else if (flag == "--peis-max-data") {
       options.maxDataBytes = parseUnsigned(flag, needValue(), kMaxDataBytes);
     } else {
@@ -129,6 +136,9 @@ void Options::validate() const {
   }
   checkEcology(ecology);
   if (maxDataBytes > kMaxDataBytes) bad("--peis-max-data", "at most 2^31-1 bytes");
+  if (liveness.count() < 100) bad("--peis-liveness-ms", "at least 100 ms");
+  if (writeTimeout.count() <= 0) bad("writeTimeout", "must be positive");
+  if (subscriptionLease.count() < 300) bad("subscriptionLease", "at least 300 ms");
 }
 
 std::string Options::helpText() {
@@ -141,6 +151,8 @@ std::string Options::helpText() {
          "  --peis-set-tuple KEY=VALUE  set an own tuple at start (repeatable)\n"
          "  --peis-ecology NAME      the ecology to join (default: default)\n"
          "  --peis-no-discovery      do not look for other PEIS on the LAN\n"
+         "  --peis-discovery-port P  UDP port of the discovery beacons (default 7700)\n"
+         "  --peis-liveness-ms MS    a link silent this long is dead (default 2000)\n"
          "  --peis-max-data BYTES    largest tuple data accepted (default 64 MiB)\n"
          "  --help, -h               show this help\n";
 }

@@ -2,6 +2,7 @@
 #include "tuple_space.h"
 
 #include <algorithm>
+#include <atomic>
 
 #include "peis/error.h"
 #include "peis/key.h"
@@ -12,7 +13,7 @@ struct TupleSpace::Entry {
   Pattern pattern;
   unsigned mask = kOnAny;
   Callback fn;
-  bool active = true;
+  std::atomic<bool> active{true};  // cleared by removeCallback from any thread
 };
 
 // An indirect callback. `queueTarget` is where events are matched (under the
@@ -22,7 +23,7 @@ struct TupleSpace::Indirect {
   TupleRef meta;
   unsigned mask = kOnAny;
   Callback fn;
-  bool active = true;
+  std::atomic<bool> active{true};  // cleared by removeCallback from any thread
   bool targeted = false;
   std::optional<TupleRef> queueTarget;
   std::optional<TupleRef> deliverTarget;
@@ -54,12 +55,24 @@ void checkMimetype(const std::string& mimetype) {
 
 }  // namespace
 
-void TupleSpace::Delivery::run() const {
+void TupleSpace::Delivery::run(const std::function<void(std::exception_ptr)>& onError) const {
+  std::exception_ptr first;
+  auto call = [&](const Callback& fn, EventKind kind) {
+    try {
+      fn(kind, *tuple_);
+    } catch (...) {
+      if (onError) {
+        onError(std::current_exception());
+      } else if (!first) {
+        first = std::current_exception();
+      }
+    }
+  };
   for (const auto& target : targets_) {
     if (target->entry) {
       const auto& entry = *target->entry;
       if (entry.active && tuple_ && (entry.mask & static_cast<unsigned>(kind_))) {
-        entry.fn(kind_, *tuple_);
+        call(entry.fn, kind_);
       }
       continue;
     }
@@ -70,15 +83,16 @@ void TupleSpace::Delivery::run() const {
       indirect.lastSeqno = 0;
       if (tuple_) {
         indirect.lastSeqno = tuple_->seqno;
-        if (indirect.mask & kOnChange) indirect.fn(EventKind::Changed, *tuple_);
+        if (indirect.mask & kOnChange) call(indirect.fn, EventKind::Changed);
       }
       continue;
     }
     if (!tuple_ || !sameRef(indirect.deliverTarget, *tuple_)) continue;
     if (tuple_->seqno <= indirect.lastSeqno) continue;
     indirect.lastSeqno = tuple_->seqno;
-    if (indirect.mask & static_cast<unsigned>(kind_)) indirect.fn(kind_, *tuple_);
+    if (indirect.mask & static_cast<unsigned>(kind_)) call(indirect.fn, kind_);
   }
+  if (first) std::rethrow_exception(first);
 }
 
 TupleSpace::TupleSpace(PeisId self, Clock clock, SpaceLimits limits)
@@ -90,6 +104,29 @@ TupleSpace::TupleSpace(PeisId self, Clock clock, SpaceLimits limits)
 }
 
 TupleSpace::~TupleSpace() = default;
+
+void TupleSpace::changeSelf(PeisId newId) {
+  if (!isValidPeisId(newId)) {
+    throw Error(ErrorCode::InvalidArgument, "invalid PEIS id " + std::to_string(newId));
+  }
+  std::vector<Tuple> own;
+  for (auto it = tuples_.lower_bound(TupleRef{self_, ""});
+       it != tuples_.end() && it->first.owner == self_;) {
+    Tuple moved = *it->second;
+    moved.owner = newId;
+    if (moved.creator == self_) moved.creator = newId;
+    own.push_back(std::move(moved));
+    it = tuples_.erase(it);
+  }
+  tuples_.erase(TupleRef{newId, ""});  // nothing cached may claim the new id
+  for (auto it = tuples_.lower_bound(TupleRef{newId, ""});
+       it != tuples_.end() && it->first.owner == newId;) {
+    it = tuples_.erase(it);
+  }
+  self_ = newId;
+  for (auto& tuple : own) store(std::move(tuple));
+  allKeysDirty_ = true;
+}
 
 void TupleSpace::checkData(std::size_t bytes) const {
   if (bytes > limits_.maxDataBytes) {
@@ -217,6 +254,19 @@ bool TupleSpace::acceptDelete(PeisId owner, std::string_view key, std::uint64_t 
   return true;
 }
 
+std::size_t TupleSpace::forgetOwner(PeisId owner) {
+  if (owner == self_) return 0;
+  std::size_t count = 0;
+  for (auto it = tuples_.lower_bound(TupleRef{owner, ""});
+       it != tuples_.end() && it->first.owner == owner;) {
+    auto next = std::next(it);
+    remove(it, it->second->seqno);
+    it = next;
+    ++count;
+  }
+  return count;
+}
+
 TuplePtr TupleSpace::get(PeisId owner, std::string_view key) const {
   auto it = tuples_.find(TupleRef{owner, std::string(key)});
   return it == tuples_.end() ? nullptr : live(it->second);
@@ -341,7 +391,11 @@ TuplePtr TupleSpace::getIndirect(PeisId owner, std::string_view metaKey) const {
 
 CallbackId TupleSpace::addCallback(const Pattern& pattern, unsigned mask, Callback fn) {
   const auto id = nextCallbackId_++;
-  callbacks_.emplace(id, std::make_shared<Entry>(Entry{pattern, mask, std::move(fn)}));
+  auto entry = std::make_shared<Entry>();
+  entry->pattern = pattern;
+  entry->mask = mask;
+  entry->fn = std::move(fn);
+  callbacks_.emplace(id, std::move(entry));
   return id;
 }
 
@@ -381,6 +435,11 @@ void TupleSpace::retarget(const std::shared_ptr<Indirect>& indirect) {
   auto target = resolveMeta(indirect->meta.owner, indirect->meta.key);
   if (indirect->targeted && target == indirect->queueTarget) return;
   indirect->targeted = true;
+  if (retargetObserver_) {
+    for (const auto& [id, entry] : indirects_) {
+      if (entry == indirect) retargetObserver_(id, indirect->queueTarget, target);
+    }
+  }
   indirect->queueTarget = target;
   Delivery delivery;
   delivery.kind_ = EventKind::Changed;
@@ -394,6 +453,7 @@ void TupleSpace::retarget(const std::shared_ptr<Indirect>& indirect) {
 }
 
 void TupleSpace::queueEvent(EventKind kind, const TuplePtr& tuple) {
+  if (observer_) observer_(kind, tuple);
   Delivery delivery;
   delivery.kind_ = kind;
   delivery.tuple_ = tuple;

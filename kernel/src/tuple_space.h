@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <exception>
 #include <functional>
 #include <map>
 #include <memory>
@@ -45,6 +46,8 @@ class TupleSpace {
   ~TupleSpace();
 
   PeisId self() const { return self_; }
+  // Moves every own tuple to a new owner id (after an id collision).
+  void changeSelf(PeisId newId);
   const SpaceLimits& limits() const { return limits_; }
 
   // --- writes the owner accepts (owner = self) -----------------------------
@@ -71,6 +74,19 @@ class TupleSpace {
   bool accept(const Tuple& tuple);
   // Removes a cached tuple deleted by its owner at `seqno`.
   bool acceptDelete(PeisId owner, std::string_view key, std::uint64_t seqno);
+
+  // Drops every cached tuple of another owner (it restarted or is gone),
+  // queueing delete events; returns how many.
+  std::size_t forgetOwner(PeisId owner);
+
+  // --- observers (called synchronously, inside the mutating call) ----------
+  // Every change or delete of any tuple, before callbacks are matched.
+  using Observer = std::function<void(EventKind, const TuplePtr&)>;
+  void setObserver(Observer observer) { observer_ = std::move(observer); }
+  // An indirect callback's target changed (from, to).
+  using RetargetObserver = std::function<void(CallbackId, const std::optional<TupleRef>&,
+                                              const std::optional<TupleRef>&)>;
+  void setRetargetObserver(RetargetObserver observer) { retargetObserver_ = std::move(observer); }
 
   // --- reads ----------------------------------------------------------------
   TuplePtr get(PeisId owner, std::string_view key) const;
@@ -115,7 +131,10 @@ class TupleSpace {
   // One queued event with the callbacks it matched when it happened.
   class Delivery {
    public:
-    void run() const;
+    // Runs the matched callbacks in order. One that throws does not keep
+    // the others from running: `onError` gets each exception; without it the
+    // first one is rethrown once all have run.
+    void run(const std::function<void(std::exception_ptr)>& onError = {}) const;
     EventKind kind() const { return kind_; }
     const TuplePtr& tuple() const { return tuple_; }
 
@@ -159,6 +178,8 @@ class TupleSpace {
   CallbackId nextCallbackId_ = 1;
   bool dispatching_ = false;
   bool allKeysDirty_ = true;
+  Observer observer_;
+  RetargetObserver retargetObserver_;
 };
 
 }  // namespace peis

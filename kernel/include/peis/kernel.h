@@ -17,6 +17,7 @@
 #include <string_view>
 #include <vector>
 
+#include "peis/error.h"
 #include "peis/key.h"
 #include "peis/options.h"
 #include "peis/pattern.h"
@@ -27,6 +28,25 @@ namespace peis {
 using TupleCallback = std::function<void(const Tuple&)>;
 using CallbackHandle = std::uint64_t;
 using TimerHandle = std::uint64_t;
+using SubscriptionHandle = std::uint64_t;
+// Completion of a remote write: no error and the seqno the owner gave it, or
+// the error (Unreachable, Timeout, Refused, or the owner's own error).
+using WriteDone = std::function<void(const std::optional<Error>& error, std::uint64_t seqno)>;
+
+// A PEIS this one can reach (directly or over several hops).
+struct PeerInfo {
+  PeisId id = 0;
+  std::string name;
+  int hops = 0;  // 0: this PEIS, 1: a direct link
+  std::uint64_t incarnation = 0;
+};
+
+// Counters of the network layer (docs/protocol.md says what each counts).
+struct NetworkStats {
+  std::uint64_t framesIn = 0, framesOut = 0, malformedFrames = 0, garbagePeersDisconnected = 0,
+                foreignEcologyRejected = 0, unroutable = 0, coalesced = 0, idCollisions = 0,
+                malformedBeacons = 0;
+};
 
 // The special tuples every PEIS publishes under "kernel.".
 namespace special {
@@ -39,6 +59,9 @@ inline constexpr const char* kAllKeys = "kernel.all-keys";
 inline constexpr const char* kSubscribers = "kernel.subscribers";
 inline constexpr const char* kLinks = "kernel.links";
 inline constexpr const char* kDoQuit = "kernel.do-quit";
+inline constexpr const char* kPeers = "kernel.peers";
+inline constexpr const char* kPort = "kernel.port";
+inline constexpr const char* kStarted = "kernel.started";
 }  // namespace special
 
 // "position" -> "mi-position": the meta tuple of a component input.
@@ -62,9 +85,18 @@ class Kernel {
   // --- writes ---------------------------------------------------------------
   // Sets a tuple in this PEIS's namespace; returns it as stamped.
   Tuple set(std::string_view key, std::string data, const WriteOptions& options = {});
-  // Sets a tuple of any owner. Another owner must accept the write; until the
-  // network layer links this PEIS to others that fails with Unreachable.
+  // Sets a tuple of any owner and returns once the owner accepted it (the
+  // returned tuple carries the owner's seqno). Throws Error(Unreachable /
+  // Timeout / the owner's error). On the kernel thread: Error(WouldDeadlock),
+  // use setAsync there.
   Tuple set(PeisId owner, std::string_view key, std::string data, const WriteOptions& options = {});
+  // The same without waiting; `done` runs on the kernel thread.
+  void setAsync(PeisId owner, std::string_view key, std::string data,
+                const WriteOptions& options = {}, WriteDone done = {});
+  // Appends to / deletes another owner's tuple, waiting for the owner.
+  Tuple append(PeisId owner, std::string_view key, std::string_view data,
+               std::optional<std::uint64_t> ifSeqno = std::nullopt);
+  bool erase(PeisId owner, std::string_view key);
   // Appends to an own tuple atomically; with `ifSeqno`, only if the tuple's
   // seqno is still that number (else Error(Conflict)).
   Tuple append(std::string_view key, std::string_view data,
@@ -88,6 +120,19 @@ class Kernel {
   // An id or a PEIS name -> id; Error(NotFound / AmbiguousName) otherwise.
   PeisId resolveOwner(std::string_view idOrName) const;
 
+  // --- subscriptions: interest that makes owners push their changes here ---
+  // Owners matching the pattern (one owner, or any, including PEIS that
+  // join later) send their matching tuples now and every change after.
+  SubscriptionHandle subscribe(const Pattern& pattern);
+  bool unsubscribe(SubscriptionHandle handle);
+
+  // --- the ecology ------------------------------------------------------------
+  // Every PEIS reachable now, this one included (hops 0).
+  std::vector<PeerInfo> peers() const;
+  // The TCP port this PEIS listens on (0 without network).
+  std::uint16_t port() const;
+  NetworkStats networkStats() const;
+
   // --- callbacks ----------------------------------------------------------------
   CallbackHandle onChange(const Pattern& pattern, TupleCallback fn);
   CallbackHandle onDelete(const Pattern& pattern, TupleCallback fn);
@@ -108,7 +153,8 @@ class Kernel {
   Tuple setIndirect(PeisId owner, std::string_view metaKey, std::string data,
                     const WriteOptions& options = {});
   // Calls `fn` with every change of whatever the meta tuple points to, and
-  // with the new target's current value when it is re-pointed.
+  // with the new target's current value when it is re-pointed. Subscribes
+  // to the meta tuple and to its current target when they are remote.
   CallbackHandle subscribeIndirect(PeisId owner, std::string_view metaKey, TupleCallback fn);
 
   // --- the kernel thread -------------------------------------------------------------

@@ -3,6 +3,7 @@
 // to the program.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -22,8 +23,13 @@ struct Options {
   std::string ecology = "default";                             // --peis-ecology NAME
   bool discovery = true;                                       // --peis-no-discovery turns it off
   std::size_t maxDataBytes = kDefaultMaxDataBytes;             // --peis-max-data BYTES
-  bool help = false;        // --help or -h was given (left in argv)
-  std::string programName;  // basename of argv[0]
+  std::uint16_t discoveryPort = 7700;                 // --peis-discovery-port P (UDP beacons)
+  std::chrono::milliseconds liveness{2000};           // --peis-liveness-ms: silence => gone
+  std::chrono::milliseconds writeTimeout{5000};       // a remote write's deadline
+  std::chrono::milliseconds subscriptionLease{6000};  // renewed every third of it
+  bool network = true;                                // false: a PEIS on its own, no sockets at all
+  bool help = false;                                  // --help or -h was given (left in argv)
+  std::string programName;                            // basename of argv[0]
 
   // Parses and removes the --peis-* flags from argv (argc is updated).
   // Throws Error(InvalidArgument) naming the flag and what is wrong.

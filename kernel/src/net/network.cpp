@@ -158,13 +158,18 @@ class Network::Impl {
   void start();
   void stop();
   bool send(wire::RoutedMessage message);
-  bool sendUpdate(PeisId destination, const wire::TupleUpdate& update);
+  bool sendUpdate(PeisId destination, std::uint64_t incarnation, const Tuple& tuple);
   std::vector<PeerInfo> peers() const;
   std::vector<LinkInfo> links() const;
 
   // Called by links.
   void onFrame(const std::shared_ptr<Link>& link, std::string_view frame);
   void onClosed(const std::shared_ptr<Link>& link, const std::string& reason);
+  std::uint16_t listenPort() const {
+    boost::system::error_code ec;
+    const auto endpoint = acceptor_.local_endpoint(ec);
+    return ec ? 0 : endpoint.port();
+  }
   std::size_t maxFrameBytes() const { return config_.maxDataBytes + wire::kMaxFrameOverhead; }
 
   asio::io_context& io_;
@@ -178,7 +183,7 @@ class Network::Impl {
  private:
   void accept();
   void dial(const std::string& host, std::uint16_t port, int explicitIndex);
-  void addLink(tcp::socket socket, bool outbound, int explicitIndex);
+  void addLink(tcp::socket socket, bool outbound, int explicitIndex, PeisId dialTarget = 0);
   void onHello(const std::shared_ptr<Link>& link, const wire::Hello& hello);
   void onRouted(const std::shared_ptr<Link>& link, std::string_view frame,
                 wire::RoutedMessage&& message);
@@ -283,6 +288,7 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   SteadyClock::time_point lastHeard_;
   int malformed_ = 0;
   bool closed_ = false;
+  PeisId dialTarget_ = 0;  // the beacon peer this link was dialled for
 
  private:
   void flushUpdates() {
@@ -296,25 +302,25 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
 
   void write() {
     if (writing_ || closed_) return;
-    if (pending_.empty() && !updateOrder_.empty() &&
-        backlog() < net_.config_.coalesceAboveBytes) {
+    if (pending_.empty() && !updateOrder_.empty() && backlog() < net_.config_.coalesceAboveBytes) {
       flushUpdates();
     }
     if (pending_.empty()) return;
     out_.swap(pending_);
     pending_.clear();
     writing_ = true;
-    asio::async_write(socket_, asio::buffer(out_),
-                      [self = shared_from_this()](const boost::system::error_code& ec, std::size_t) {
-                        self->writing_ = false;
-                        self->out_.clear();
-                        if (ec) return self->close("write failed: " + ec.message());
-                        if (!self->closeReason_.empty() && self->pending_.empty()) {
-                          return self->close(self->closeReason_);
-                        }
-                        if (self->pending_.empty()) self->flushUpdates();
-                        self->write();
-                      });
+    asio::async_write(
+        socket_, asio::buffer(out_),
+        [self = shared_from_this()](const boost::system::error_code& ec, std::size_t) {
+          self->writing_ = false;
+          self->out_.clear();
+          if (ec) return self->close("write failed: " + ec.message());
+          if (!self->closeReason_.empty() && self->pending_.empty()) {
+            return self->close(self->closeReason_);
+          }
+          if (self->pending_.empty()) self->flushUpdates();
+          self->write();
+        });
   }
 
   void read() {
@@ -456,8 +462,10 @@ void Network::Impl::dial(const std::string& host, std::uint16_t port, int explic
       });
 }
 
-void Network::Impl::addLink(tcp::socket socket, bool outbound, int explicitIndex) {
+void Network::Impl::addLink(tcp::socket socket, bool outbound, int explicitIndex,
+                            PeisId dialTarget) {
   auto link = std::make_shared<Link>(*this, std::move(socket), outbound, explicitIndex);
+  link->dialTarget_ = dialTarget;
   links_.push_back(link);
   if (explicitIndex >= 0) explicitLinks_[static_cast<std::size_t>(explicitIndex)] = link;
   link->start(hello());
@@ -465,6 +473,7 @@ void Network::Impl::addLink(tcp::socket socket, bool outbound, int explicitIndex
 
 void Network::Impl::onClosed(const std::shared_ptr<Link>& link, const std::string& reason) {
   links_.erase(std::remove(links_.begin(), links_.end(), link), links_.end());
+  if (link->dialTarget_ != 0) dialing_.erase(link->dialTarget_);
   if (link->established_) {
     dialing_.erase(link->peer_.id);
     log::info(self_, "link to PEIS " + std::to_string(link->peer_.id) + " (" + link->remote_ +
@@ -567,7 +576,9 @@ void Network::Impl::collision(std::uint64_t otherIncarnation) {
   auto links = links_;
   for (auto& l : links) l->close("re-picked my id");
   routes_[self_] = Route{0, self_, incarnation_, config_.name};
-  if (udp_.is_open()) sendBeacon(udp::endpoint(asio::ip::make_address_v4("127.255.255.255"), config_.discoveryPort), true);
+  if (udp_.is_open())
+    sendBeacon(udp::endpoint(asio::ip::make_address_v4("127.255.255.255"), config_.discoveryPort),
+               true);
 }
 
 void Network::Impl::onRouted(const std::shared_ptr<Link>& link, std::string_view frame,
@@ -630,7 +641,7 @@ bool Network::Impl::send(wire::RoutedMessage message) {
   return forward(message.envelope.destination, wire::encodeFrame(message));
 }
 
-bool Network::Impl::sendUpdate(PeisId destination, const wire::TupleUpdate& update) {
+bool Network::Impl::sendUpdate(PeisId destination, std::uint64_t incarnation, const Tuple& tuple) {
   auto route = routes_.find(destination);
   if (route == routes_.end() || route->second.hops == 0) {
     ++counters_.unroutable;
@@ -641,8 +652,10 @@ bool Network::Impl::sendUpdate(PeisId destination, const wire::TupleUpdate& upda
     ++counters_.unroutable;
     return false;
   }
-  wire::RoutedMessage message{wire::Envelope{self_, destination, wire::kDefaultTtl}, update};
-  link->sendUpdate(TupleRef{destination, update.tuple.fullName()}, wire::encodeFrame(message));
+  std::string frame;
+  wire::encodeTupleUpdate(wire::Envelope{self_, destination, wire::kDefaultTtl}, incarnation, tuple,
+                          frame);
+  link->sendUpdate(TupleRef{destination, tuple.fullName()}, std::move(frame));
   return true;
 }
 
@@ -731,8 +744,9 @@ void Network::Impl::pingLoop() {
       }
       if (!link->established_) continue;
       std::string out;
-      wire::encode(wire::LinkMessage{wire::Ping{static_cast<std::uint64_t>(now.time_since_epoch().count())}},
-                   out);
+      wire::encode(
+          wire::LinkMessage{wire::Ping{static_cast<std::uint64_t>(now.time_since_epoch().count())}},
+          out);
       link->sendFrame(out);
     }
     pingLoop();
@@ -759,7 +773,8 @@ void Network::Impl::beaconLoop() {
   // Forget beacon peers that went quiet.
   const auto now = SteadyClock::now();
   for (auto it = beaconPeers_.begin(); it != beaconPeers_.end();) {
-    it = now - it->second.lastSeen > config_.beaconPeriod * 4 ? beaconPeers_.erase(it) : std::next(it);
+    it = now - it->second.lastSeen > config_.beaconPeriod * 4 ? beaconPeers_.erase(it)
+                                                              : std::next(it);
   }
   evaluateDials();
   beaconTimer_.expires_after(config_.beaconPeriod);
@@ -769,7 +784,8 @@ void Network::Impl::beaconLoop() {
 }
 
 void Network::Impl::sendBeacon(const udp::endpoint& to, bool wantsAnswer) {
-  Beacon beacon{config_.ecology, self_, incarnation_, acceptor_.local_endpoint().port(), wantsAnswer};
+  Beacon beacon{config_.ecology, self_, incarnation_, acceptor_.local_endpoint().port(),
+                wantsAnswer};
   auto payload = std::make_shared<std::string>(encodeBeacon(beacon));
   udp_.async_send_to(asio::buffer(*payload), to,
                      [payload](const boost::system::error_code&, std::size_t) {});
@@ -809,17 +825,26 @@ void Network::Impl::onBeacon(const Beacon& beacon, const udp::endpoint& from) {
   }
 }
 
-// Links to the PEIS at distances 1, 2, 4, 8, ... after this one in id order
-// (wrapping): a connected overlay of O(log N) links per PEIS.
+// The overlay: in id order (wrapping), each PEIS wants links to the PEIS at
+// distances 1, 2, 4, 8, ... after it: a connected graph of O(log N) links
+// each. Of every wanted pair, only the lower id dials, so no link is doubled.
 void Network::Impl::evaluateDials() {
   std::vector<PeisId> ids{self_};
   for (const auto& [id, peer] : beaconPeers_) ids.push_back(id);
   std::sort(ids.begin(), ids.end());
   const auto n = ids.size();
-  const auto mine = static_cast<std::size_t>(std::find(ids.begin(), ids.end(), self_) - ids.begin());
-  for (std::size_t step = 1; step < n; step *= 2) {
-    const PeisId target = ids[(mine + step) % n];
-    if (target == self_ || linkTo(target) || dialing_.count(target)) continue;
+  auto wants = [&](std::size_t from, std::size_t to) {
+    for (std::size_t step = 1; step < n; step *= 2) {
+      if ((from + step) % n == to) return true;
+    }
+    return false;
+  };
+  const auto mine =
+      static_cast<std::size_t>(std::find(ids.begin(), ids.end(), self_) - ids.begin());
+  for (std::size_t other = mine + 1; other < n; ++other) {
+    const PeisId target = ids[other];
+    if (!wants(mine, other) && !wants(other, mine)) continue;
+    if (linkTo(target) || dialing_.count(target)) continue;
     const auto& peer = beaconPeers_[target];
     dialing_.insert(target);
     auto socket = std::make_shared<tcp::socket>(io_);
@@ -830,7 +855,7 @@ void Network::Impl::evaluateDials() {
                               dialing_.erase(target);
                               return;
                             }
-                            addLink(std::move(*socket), true, -1);
+                            addLink(std::move(*socket), true, -1, target);
                           });
   }
 }
@@ -853,15 +878,15 @@ std::vector<LinkInfo> Network::Impl::links() const {
   return result;
 }
 
-Network::Network(asio::io_context& io, NetworkConfig config, PeisId self,
-                 std::uint64_t incarnation, Events events)
+Network::Network(asio::io_context& io, NetworkConfig config, PeisId self, std::uint64_t incarnation,
+                 Events events)
     : impl_(std::make_unique<Impl>(io, std::move(config), self, incarnation, std::move(events))) {}
 Network::~Network() = default;
 void Network::start() { impl_->start(); }
 void Network::stop() { impl_->stop(); }
 bool Network::send(wire::RoutedMessage message) { return impl_->send(std::move(message)); }
-bool Network::sendUpdate(PeisId destination, const wire::TupleUpdate& update) {
-  return impl_->sendUpdate(destination, update);
+bool Network::sendUpdate(PeisId destination, std::uint64_t incarnation, const Tuple& tuple) {
+  return impl_->sendUpdate(destination, incarnation, tuple);
 }
 bool Network::reachable(PeisId id) const {
   for (const auto& peer : impl_->peers()) {
@@ -872,7 +897,7 @@ bool Network::reachable(PeisId id) const {
 std::vector<PeerInfo> Network::peers() const { return impl_->peers(); }
 std::vector<LinkInfo> Network::links() const { return impl_->links(); }
 const Counters& Network::counters() const { return impl_->counters_; }
-std::uint16_t Network::port() const { return impl_->config_.port; }
+std::uint16_t Network::port() const { return impl_->listenPort(); }
 PeisId Network::self() const { return impl_->self_; }
 
 }  // namespace peis::net

@@ -25,8 +25,8 @@ enum class DiscoveryScope { Off, Loopback, Lan };
 struct NetworkConfig {
   std::string ecology = "default";
   std::string name;
-  std::uint16_t port = 0;              // 0: any free port
-  std::vector<std::string> connect;    // HOST:PORT links kept up
+  std::uint16_t port = 0;            // 0: any free port
+  std::vector<std::string> connect;  // HOST:PORT links kept up
   DiscoveryScope discovery = DiscoveryScope::Lan;
   std::uint16_t discoveryPort = 7700;  // UDP port of the beacons
   std::chrono::milliseconds beaconPeriod{1000};
@@ -41,8 +41,8 @@ struct PeerInfo {
   PeisId id = 0;
   std::string name;
   std::uint64_t incarnation = 0;
-  int hops = 0;         // 0: this PEIS, 1: a direct link
-  PeisId nextHop = 0;   // the linked PEIS the route goes through
+  int hops = 0;        // 0: this PEIS, 1: a direct link
+  PeisId nextHop = 0;  // the linked PEIS the route goes through
 };
 
 struct LinkInfo {
@@ -78,8 +78,8 @@ class Network {
     std::function<PeisId()> repickId;
   };
 
-  Network(boost::asio::io_context& io, NetworkConfig config, PeisId self,
-          std::uint64_t incarnation, Events events);
+  Network(boost::asio::io_context& io, NetworkConfig config, PeisId self, std::uint64_t incarnation,
+          Events events);
   ~Network();
   Network(const Network&) = delete;
   Network& operator=(const Network&) = delete;
@@ -94,7 +94,7 @@ class Network {
   bool send(wire::RoutedMessage message);
   // Sends a tuple update; when the link to the next hop is backlogged, an
   // update still waiting for the same (owner, key) is replaced (counted).
-  bool sendUpdate(PeisId destination, const wire::TupleUpdate& update);
+  bool sendUpdate(PeisId destination, std::uint64_t ownerIncarnation, const Tuple& tuple);
 
   bool reachable(PeisId id) const;
   std::vector<PeerInfo> peers() const;

@@ -286,8 +286,10 @@ LinkMessage decodeLink(MessageType type, Reader& r) {
       if (r.ok() && !m.name.empty() && nameProblem(m.name)) r.fail("bad PEIS name");
       return m;
     }
-    case MessageType::Ping: return Ping{r.u64("nonce")};
-    case MessageType::Pong: return Pong{r.u64("nonce")};
+    case MessageType::Ping:
+      return Ping{r.u64("nonce")};
+    case MessageType::Pong:
+      return Pong{r.u64("nonce")};
     case MessageType::Routes: {
       Routes m;
       const auto count = r.u16("route count");
@@ -330,7 +332,8 @@ RoutedBody decodeBody(MessageType type, Reader& r, std::size_t maxDataBytes) {
       }
       return m;
     }
-    case MessageType::Unsubscribe: return Unsubscribe{r.u64("subscription")};
+    case MessageType::Unsubscribe:
+      return Unsubscribe{r.u64("subscription")};
     case MessageType::TupleUpdate: {
       TupleUpdate m;
       m.ownerIncarnation = r.u64("incarnation");
@@ -372,15 +375,11 @@ RoutedBody decodeBody(MessageType type, Reader& r, std::size_t maxDataBytes) {
   }
 }
 
-bool knownType(std::uint8_t type) {
-  return (type >= 1 && type <= 5) || (type >= 16 && type <= 21);
-}
+bool knownType(std::uint8_t type) { return (type >= 1 && type <= 5) || (type >= 16 && type <= 21); }
 
 }  // namespace
 
-void encode(const LinkMessage& message, std::string& out) {
-  std::visit(LinkEncoder{out}, message);
-}
+void encode(const LinkMessage& message, std::string& out) { std::visit(LinkEncoder{out}, message); }
 
 void encode(const RoutedMessage& message, std::string& out) {
   std::size_t start;
@@ -388,6 +387,17 @@ void encode(const RoutedMessage& message, std::string& out) {
   Writer w(out);
   writeEnvelope(w, message.envelope);
   std::visit(BodyEncoder{w}, message.body);
+  endFrame(out, start);
+}
+
+void encodeTupleUpdate(const Envelope& envelope, std::uint64_t ownerIncarnation, const Tuple& tuple,
+                       std::string& out) {
+  std::size_t start;
+  beginFrame(out, MessageType::TupleUpdate, start);
+  Writer w(out);
+  writeEnvelope(w, envelope);
+  w.u64(ownerIncarnation);
+  writeTuple(w, tuple);
   endFrame(out, start);
 }
 

@@ -114,6 +114,9 @@ void encode(const RoutedMessage& message, std::string& out);
 // The frame for a routed body with its envelope; the body bytes are built
 // once and can be re-enveloped per destination with reEnvelope().
 std::string encodeFrame(const RoutedMessage& message);
+// A TupleUpdate frame straight from a stored tuple (no intermediate copy).
+void encodeTupleUpdate(const Envelope& envelope, std::uint64_t ownerIncarnation, const Tuple& tuple,
+                       std::string& out);
 // Rewrites the envelope of an encoded routed frame in place.
 void reEnvelope(std::string& frame, const Envelope& envelope);
 

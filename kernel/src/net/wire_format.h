@@ -62,9 +62,7 @@ enum class MessageType : std::uint8_t {
   WriteResult = 21,
 };
 
-inline constexpr bool isRouted(MessageType type) {
-  return static_cast<std::uint8_t>(type) >= 16;
-}
+inline constexpr bool isRouted(MessageType type) { return static_cast<std::uint8_t>(type) >= 16; }
 
 // Capability flags in Hello.
 inline constexpr std::uint32_t kCapabilityCoalescing = 1u << 0;

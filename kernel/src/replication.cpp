@@ -1,0 +1,244 @@
+// Replication decisions; see replication.h.
+#include "replication.h"
+
+#include "peis/error.h"
+
+namespace peis {
+
+Replication::Replication(TupleSpace& space, std::uint64_t incarnation,
+                         std::chrono::milliseconds lease)
+    : space_(space), incarnation_(incarnation), lease_(lease) {}
+
+void Replication::onLocalEvent(EventKind kind, const TuplePtr& tuple) {
+  if (tuple->owner != space_.self()) return;
+  for (const auto& [subscriber, subscriptions] : remote_) {
+    for (const auto& [id, subscription] : subscriptions) {
+      if (!subscription.pattern.matchesOwnerAndKey(tuple->owner, tuple->key)) continue;
+      if (kind == EventKind::Changed) {
+        outbox_.push_back(Outgoing{subscriber, tuple, std::nullopt});
+      } else {
+        outbox_.push_back(
+            Outgoing{subscriber, nullptr,
+                     wire::TupleDeleted{incarnation_, tuple->owner, tuple->key, tuple->seqno}});
+      }
+      break;  // one copy per subscriber, however many of its patterns match
+    }
+  }
+}
+
+void Replication::onSubscribe(PeisId subscriber, const wire::Subscribe& subscribe, SteadyTime now) {
+  if (subscribe.owner && *subscribe.owner != space_.self()) return;
+  if (!reachable_.count(subscriber)) reachable_.insert(subscriber);
+  Pattern pattern;
+  try {
+    pattern = Pattern(subscribe.keyPattern, space_.self());
+  } catch (const Error&) {
+    return;  // the decoder already checked it; never trust twice-removed input
+  }
+  auto& subscriptions = remote_[subscriber];
+  const bool isNew = !subscriptions.count(subscribe.subscription);
+  const auto lease = std::chrono::milliseconds(std::max<std::uint32_t>(subscribe.leaseMs, 300));
+  subscriptions.insert_or_assign(subscribe.subscription, RemoteSubscription{pattern, now + lease});
+  if (!isNew) return;
+  for (const auto& tuple : space_.find(pattern)) {
+    outbox_.push_back(Outgoing{subscriber, tuple, std::nullopt});
+  }
+}
+
+void Replication::onUnsubscribe(PeisId subscriber, std::uint64_t subscription) {
+  auto it = remote_.find(subscriber);
+  if (it == remote_.end()) return;
+  it->second.erase(subscription);
+  if (it->second.empty()) remote_.erase(it);
+}
+
+wire::WriteResult Replication::onWrite(PeisId source, const wire::Write& write) {
+  wire::WriteResult result;
+  result.request = write.request;
+  const auto& t = write.tuple;
+  try {
+    if (t.owner != space_.self()) {
+      throw Error(ErrorCode::Refused,
+                  "PEIS " + std::to_string(space_.self()) + " does not own " + t.fullName());
+    }
+    WriteOptions options;
+    options.mimetype = t.mimetype;
+    options.encoding = t.encoding;
+    options.ts_user = t.ts_user;
+    options.ts_expire = t.ts_expire;
+    options.ttl = std::chrono::microseconds(write.ttlMicros);
+    switch (write.op) {
+      case wire::WriteOp::Set:
+        result.seqno = space_.set(t.key, t.data, options, source)->seqno;
+        break;
+      case wire::WriteOp::Append:
+        result.seqno = space_.append(t.key, t.data, write.ifSeqno, options, source)->seqno;
+        break;
+      case wire::WriteOp::Erase:
+        result.seqno = space_.erase(t.key) ? space_.seqno(space_.self(), t.key) : 0;
+        break;
+    }
+  } catch (const Error& e) {
+    result.status = static_cast<std::uint8_t>(static_cast<int>(e.code()) + 1);
+    result.message = e.what();
+  }
+  outbox_.push_back(Outgoing{source, nullptr, result});
+  return result;
+}
+
+bool Replication::expireLeases(SteadyTime now) {
+  bool dropped = false;
+  for (auto it = remote_.begin(); it != remote_.end();) {
+    auto& subscriptions = it->second;
+    for (auto sub = subscriptions.begin(); sub != subscriptions.end();) {
+      if (sub->second.expiry < now) {
+        sub = subscriptions.erase(sub);
+        dropped = true;
+      } else {
+        ++sub;
+      }
+    }
+    it = subscriptions.empty() ? remote_.erase(it) : std::next(it);
+  }
+  return dropped;
+}
+
+std::vector<PeisId> Replication::subscribers() const {
+  std::vector<PeisId> ids;
+  for (const auto& [id, subscriptions] : remote_) ids.push_back(id);
+  return ids;
+}
+
+bool Replication::covers(const LocalSubscription& local, PeisId owner) const {
+  const auto& filter = local.pattern.ownerFilter();
+  return owner != space_.self() && (!filter || *filter == owner);
+}
+
+void Replication::sendSubscribe(LocalSubscription& local, PeisId owner) {
+  auto& wireId = local.wireIds[owner];
+  if (wireId != 0) outbox_.push_back(Outgoing{owner, nullptr, wire::Unsubscribe{wireId}});
+  wireId = nextWireId_++;
+  outbox_.push_back(
+      Outgoing{owner, nullptr,
+               wire::Subscribe{wireId, static_cast<std::uint32_t>(lease_.count()),
+                               local.pattern.ownerFilter(), local.pattern.keyPattern()}});
+}
+
+SubscriptionHandle Replication::subscribe(const Pattern& pattern) {
+  const auto handle = nextHandle_++;
+  auto& local = local_.emplace(handle, LocalSubscription{pattern, {}}).first->second;
+  for (PeisId owner : reachable_) {
+    if (covers(local, owner)) sendSubscribe(local, owner);
+  }
+  return handle;
+}
+
+bool Replication::unsubscribe(SubscriptionHandle handle) {
+  auto it = local_.find(handle);
+  if (it == local_.end()) return false;
+  for (const auto& [owner, wireId] : it->second.wireIds) {
+    outbox_.push_back(Outgoing{owner, nullptr, wire::Unsubscribe{wireId}});
+  }
+  local_.erase(it);
+  return true;
+}
+
+bool Replication::checkIncarnation(PeisId owner, std::uint64_t incarnation) {
+  auto& known = incarnations_[owner];
+  if (incarnation < known) {
+    ++staleDropped_;
+    return false;
+  }
+  if (incarnation > known) {
+    if (known != 0) space_.forgetOwner(owner);  // it restarted: its old tuples are gone
+    known = incarnation;
+  }
+  return true;
+}
+
+bool Replication::onUpdate(PeisId source, const wire::TupleUpdate& update) {
+  if (update.tuple.owner != source) {
+    ++staleDropped_;
+    return false;
+  }
+  if (!checkIncarnation(source, update.ownerIncarnation)) return false;
+  return space_.accept(update.tuple);
+}
+
+bool Replication::onDeleted(PeisId source, const wire::TupleDeleted& deleted) {
+  if (deleted.owner != source) {
+    ++staleDropped_;
+    return false;
+  }
+  if (!checkIncarnation(source, deleted.ownerIncarnation)) return false;
+  return space_.acceptDelete(deleted.owner, deleted.key, deleted.seqno);
+}
+
+void Replication::renew() {
+  for (auto& [handle, local] : local_) {
+    for (const auto& [owner, wireId] : local.wireIds) {
+      outbox_.push_back(
+          Outgoing{owner, nullptr,
+                   wire::Subscribe{wireId, static_cast<std::uint32_t>(lease_.count()),
+                                   local.pattern.ownerFilter(), local.pattern.keyPattern()}});
+    }
+  }
+}
+
+void Replication::onPeerUp(PeisId peer, std::uint64_t incarnation) {
+  reachable_.insert(peer);
+  auto known = incarnations_.find(peer);
+  if (known != incarnations_.end() && known->second != incarnation) {
+    remote_.erase(peer);  // subscriptions of its previous life
+    if (known->second < incarnation) {
+      space_.forgetOwner(peer);
+      known->second = incarnation;
+    }
+  }
+  // A fresh subscription id makes the owner send everything that matches:
+  // this PEIS converges after a join, a restart or a healed partition.
+  for (auto& [handle, local] : local_) {
+    if (covers(local, peer)) {
+      local.wireIds.erase(peer);
+      sendSubscribe(local, peer);
+    }
+  }
+}
+
+void Replication::onPeerDown(PeisId peer) {
+  reachable_.erase(peer);
+  remote_.erase(peer);
+  for (auto& [handle, local] : local_) local.wireIds.erase(peer);
+}
+
+void Replication::onRetarget(CallbackId indirect, const std::optional<TupleRef>& to) {
+  if (auto it = indirectTargets_.find(indirect); it != indirectTargets_.end()) {
+    unsubscribe(it->second);
+    indirectTargets_.erase(it);
+  }
+  if (to && to->owner != space_.self()) {
+    indirectTargets_[indirect] = subscribe(Pattern::exact(to->owner, to->key));
+  }
+}
+
+void Replication::trackIndirectMeta(CallbackId indirect, const TupleRef& meta) {
+  if (meta.owner == space_.self()) return;
+  indirectMetas_[indirect] = subscribe(Pattern::exact(meta.owner, meta.key));
+}
+
+void Replication::onIndirectRemoved(CallbackId indirect) {
+  for (auto* table : {&indirectTargets_, &indirectMetas_}) {
+    if (auto it = table->find(indirect); it != table->end()) {
+      unsubscribe(it->second);
+      table->erase(it);
+    }
+  }
+}
+
+std::vector<Replication::Outgoing> Replication::takeOutbox() {
+  std::vector<Outgoing> out;
+  out.swap(outbox_);
+  return out;
+}
+
+}  // namespace peis

@@ -1,0 +1,97 @@
+// Replication: what makes one PEIS's tuple space part of the distributed
+// one, as decisions on values (no sockets): the owner side (remote
+// subscribers with leases, full sync on a new subscription, applying remote
+// writes) and the subscriber side (subscriptions per owner, re-subscribing
+// when an owner appears or restarts, accepting updates in seqno order per
+// owner incarnation). Its output is an outbox of messages that the Kernel
+// hands to the Network on the kernel thread. Every method is called with
+// the Kernel's lock held.
+#pragma once
+
+#include <chrono>
+#include <map>
+#include <optional>
+#include <set>
+#include <vector>
+
+#include "net/wire.h"
+#include "peis/kernel.h"
+#include "tuple_space.h"
+
+namespace peis {
+
+class Replication {
+ public:
+  using SteadyTime = std::chrono::steady_clock::time_point;
+
+  // One message to send: a tuple update (encoded straight from the stored
+  // tuple) or another routed body.
+  struct Outgoing {
+    PeisId destination = 0;
+    TuplePtr update;
+    std::optional<wire::RoutedBody> body;
+  };
+
+  Replication(TupleSpace& space, std::uint64_t incarnation, std::chrono::milliseconds lease);
+
+  // --- owner side ---------------------------------------------------------
+  // Observer of the local space: pushes own changes to matching subscribers.
+  void onLocalEvent(EventKind kind, const TuplePtr& tuple);
+  void onSubscribe(PeisId subscriber, const wire::Subscribe& subscribe, SteadyTime now);
+  void onUnsubscribe(PeisId subscriber, std::uint64_t subscription);
+  // Applies a remote write; returns the result to send back.
+  wire::WriteResult onWrite(PeisId source, const wire::Write& write);
+  // Drops subscriptions whose lease ran out; true if any was dropped.
+  bool expireLeases(SteadyTime now);
+  std::vector<PeisId> subscribers() const;
+
+  // --- subscriber side ----------------------------------------------------------
+  SubscriptionHandle subscribe(const Pattern& pattern);
+  bool unsubscribe(SubscriptionHandle handle);
+  // Accepts an owner's update / delete; false if stale or spoofed (counted).
+  bool onUpdate(PeisId source, const wire::TupleUpdate& update);
+  bool onDeleted(PeisId source, const wire::TupleDeleted& deleted);
+  // Re-sends every subscription (lease renewal).
+  void renew();
+  void onPeerUp(PeisId peer, std::uint64_t incarnation);
+  void onPeerDown(PeisId peer);
+  // Keeps a subscription to whatever an indirect callback points at.
+  void onRetarget(CallbackId indirect, const std::optional<TupleRef>& to);
+  void onIndirectRemoved(CallbackId indirect);
+  // Also subscribe to the meta tuple of an indirect callback when remote.
+  void trackIndirectMeta(CallbackId indirect, const TupleRef& meta);
+
+  std::vector<Outgoing> takeOutbox();
+  bool hasOutgoing() const { return !outbox_.empty(); }
+  std::uint64_t staleDropped() const { return staleDropped_; }
+  std::uint64_t incarnation() const { return incarnation_; }
+
+ private:
+  struct RemoteSubscription {
+    Pattern pattern;
+    SteadyTime expiry;
+  };
+  struct LocalSubscription {
+    Pattern pattern;
+    std::map<PeisId, std::uint64_t> wireIds;  // per owner it was sent to
+  };
+  void sendSubscribe(LocalSubscription& local, PeisId owner);
+  bool covers(const LocalSubscription& local, PeisId owner) const;
+  bool checkIncarnation(PeisId owner, std::uint64_t incarnation);
+
+  TupleSpace& space_;
+  std::uint64_t incarnation_;
+  std::chrono::milliseconds lease_;
+  std::map<PeisId, std::map<std::uint64_t, RemoteSubscription>> remote_;
+  std::map<SubscriptionHandle, LocalSubscription> local_;
+  std::map<CallbackId, SubscriptionHandle> indirectTargets_;
+  std::map<CallbackId, SubscriptionHandle> indirectMetas_;
+  std::map<PeisId, std::uint64_t> incarnations_;
+  std::set<PeisId> reachable_;
+  std::vector<Outgoing> outbox_;
+  SubscriptionHandle nextHandle_ = 1;
+  std::uint64_t nextWireId_ = 1;
+  std::uint64_t staleDropped_ = 0;
+};
+
+}  // namespace peis
