@@ -1,6 +1,8 @@
 // peis-bench-local: what one PEIS costs on its own (no network): tuple space
 // writes and reads, and the latency from a set() on an application thread to
 // the callback on the kernel thread. Prints Markdown table rows.
+#include <peis/peis.h>
+
 #include <algorithm>
 #include <chrono>
 #include <condition_variable>
@@ -8,7 +10,6 @@
 #include <cstring>
 #include <fstream>
 #include <mutex>
-#include <peis/peis.h>
 #include <string>
 #include <vector>
 
@@ -72,8 +73,9 @@ void benchCallbackLatency(std::size_t bytes) {
   }
   std::sort(micros.begin(), micros.end());
   auto pct = [&](double p) { return micros[static_cast<std::size_t>(p * (micros.size() - 1))]; };
-  std::printf("| set -> callback on kernel thread | %s | p50 %.1f us | p90 %.1f us, p99 %.1f us |\n",
-              sizeName(bytes).c_str(), pct(0.5), pct(0.9), pct(0.99));
+  std::printf(
+      "| set -> callback on kernel thread | %s | p50 %.1f us | p90 %.1f us, p99 %.1f us |\n",
+      sizeName(bytes).c_str(), pct(0.5), pct(0.9), pct(0.99));
 }
 
 long rssKib() {

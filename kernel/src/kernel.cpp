@@ -34,7 +34,8 @@ namespace asio = boost::asio;
 
 namespace {
 
-constexpr int kDeliveriesPerTurn = 256;  // then let timers and posts run
+constexpr int kDeliveriesPerTurn = 256;         // then let timers and posts run
+constexpr std::size_t kMessagesPerTurn = 1024;  // network sends per turn, likewise
 
 PeisId pickId(const Options& options) {
   if (options.id) return *options.id;
@@ -280,10 +281,15 @@ struct Kernel::Impl {
   // --- network glue (kernel thread) -------------------------------------------
   void flush() {
     std::vector<Replication::Outgoing> outgoing;
+    if (network && network->congested()) return;  // onWritable posts flush again
     {
       std::lock_guard lock(mu);
-      flushScheduled = false;
-      outgoing = replication.takeOutbox();
+      outgoing = replication.takeOutbox(kMessagesPerTurn);
+      if (replication.hasOutgoing()) {
+        asio::post(io, [this] { flush(); });  // more: let the sockets drain first
+      } else {
+        flushScheduled = false;
+      }
     }
     if (!network) return;
     for (auto& out : outgoing) {
@@ -501,6 +507,7 @@ struct Kernel::Impl {
     events.onPeerUp = [this](const net::PeerInfo& p) { onPeerUp(p); };
     events.onPeerDown = [this](PeisId p) { onPeerDown(p); };
     events.repickId = [this] { return repickId(); };
+    events.onWritable = [this] { flush(); };
     network = std::make_unique<net::Network>(io, config, id, incarnation, events);
     network->start();
     std::lock_guard lock(mu);
@@ -733,6 +740,8 @@ NetworkStats Kernel::networkStats() const {
                          c.coalesced,
                          c.idCollisions,
                          c.malformedBeacons};
+    std::lock_guard lock(impl_->mu);
+    stats.coalesced += impl_->replication.coalesced();
   };
   if (onKernelThread()) {
     read();

@@ -15,11 +15,10 @@ void Replication::onLocalEvent(EventKind kind, const TuplePtr& tuple) {
     for (const auto& [id, subscription] : subscriptions) {
       if (!subscription.pattern.matchesOwnerAndKey(tuple->owner, tuple->key)) continue;
       if (kind == EventKind::Changed) {
-        outbox_.push_back(Outgoing{subscriber, tuple, std::nullopt});
+        pushUpdate(subscriber, tuple);
       } else {
-        outbox_.push_back(
-            Outgoing{subscriber, nullptr,
-                     wire::TupleDeleted{incarnation_, tuple->owner, tuple->key, tuple->seqno}});
+        push(Outgoing{subscriber, nullptr,
+                      wire::TupleDeleted{incarnation_, tuple->owner, tuple->key, tuple->seqno}});
       }
       break;  // one copy per subscriber, however many of its patterns match
     }
@@ -41,7 +40,7 @@ void Replication::onSubscribe(PeisId subscriber, const wire::Subscribe& subscrib
   subscriptions.insert_or_assign(subscribe.subscription, RemoteSubscription{pattern, now + lease});
   if (!isNew) return;
   for (const auto& tuple : space_.find(pattern)) {
-    outbox_.push_back(Outgoing{subscriber, tuple, std::nullopt});
+    pushUpdate(subscriber, tuple);
   }
 }
 
@@ -82,7 +81,7 @@ wire::WriteResult Replication::onWrite(PeisId source, const wire::Write& write) 
     result.status = static_cast<std::uint8_t>(static_cast<int>(e.code()) + 1);
     result.message = e.what();
   }
-  outbox_.push_back(Outgoing{source, nullptr, result});
+  push(Outgoing{source, nullptr, result});
   return result;
 }
 
@@ -116,12 +115,11 @@ bool Replication::covers(const LocalSubscription& local, PeisId owner) const {
 
 void Replication::sendSubscribe(LocalSubscription& local, PeisId owner) {
   auto& wireId = local.wireIds[owner];
-  if (wireId != 0) outbox_.push_back(Outgoing{owner, nullptr, wire::Unsubscribe{wireId}});
+  if (wireId != 0) push(Outgoing{owner, nullptr, wire::Unsubscribe{wireId}});
   wireId = nextWireId_++;
-  outbox_.push_back(
-      Outgoing{owner, nullptr,
-               wire::Subscribe{wireId, static_cast<std::uint32_t>(lease_.count()),
-                               local.pattern.ownerFilter(), local.pattern.keyPattern()}});
+  push(Outgoing{owner, nullptr,
+                wire::Subscribe{wireId, static_cast<std::uint32_t>(lease_.count()),
+                                local.pattern.ownerFilter(), local.pattern.keyPattern()}});
 }
 
 SubscriptionHandle Replication::subscribe(const Pattern& pattern) {
@@ -137,7 +135,7 @@ bool Replication::unsubscribe(SubscriptionHandle handle) {
   auto it = local_.find(handle);
   if (it == local_.end()) return false;
   for (const auto& [owner, wireId] : it->second.wireIds) {
-    outbox_.push_back(Outgoing{owner, nullptr, wire::Unsubscribe{wireId}});
+    push(Outgoing{owner, nullptr, wire::Unsubscribe{wireId}});
   }
   local_.erase(it);
   return true;
@@ -177,10 +175,9 @@ bool Replication::onDeleted(PeisId source, const wire::TupleDeleted& deleted) {
 void Replication::renew() {
   for (auto& [handle, local] : local_) {
     for (const auto& [owner, wireId] : local.wireIds) {
-      outbox_.push_back(
-          Outgoing{owner, nullptr,
-                   wire::Subscribe{wireId, static_cast<std::uint32_t>(lease_.count()),
-                                   local.pattern.ownerFilter(), local.pattern.keyPattern()}});
+      push(Outgoing{owner, nullptr,
+                    wire::Subscribe{wireId, static_cast<std::uint32_t>(lease_.count()),
+                                    local.pattern.ownerFilter(), local.pattern.keyPattern()}});
     }
   }
 }
@@ -235,9 +232,43 @@ void Replication::onIndirectRemoved(CallbackId indirect) {
   }
 }
 
-std::vector<Replication::Outgoing> Replication::takeOutbox() {
+void Replication::push(Outgoing outgoing) {
+  // Nothing coalesces across another message to the same destination.
+  for (auto it = pendingUpdates_.lower_bound({outgoing.destination, {}});
+       it != pendingUpdates_.end() && it->first.first == outgoing.destination;) {
+    it = pendingUpdates_.erase(it);
+  }
+  outbox_.push_back(std::move(outgoing));
+}
+
+void Replication::pushUpdate(PeisId destination, const TuplePtr& tuple) {
+  if (outbox_.size() >= kCoalesceOutboxAbove / 2) {
+    auto key = std::make_pair(destination, tuple->key);
+    auto it = pendingUpdates_.find(key);
+    if (outbox_.size() >= kCoalesceOutboxAbove && it != pendingUpdates_.end() &&
+        it->second >= outboxBase_) {
+      // Overload: the owner writes faster than the network drains. Keep the
+      // newest value in the place of the one still waiting (latest value).
+      auto& waiting = outbox_[it->second - outboxBase_];
+      waiting.update = tuple;
+      ++coalesced_;
+      return;
+    }
+    pendingUpdates_[key] = outboxBase_ + outbox_.size();
+  }
+  outbox_.push_back(Outgoing{destination, tuple, std::nullopt});
+}
+
+std::vector<Replication::Outgoing> Replication::takeOutbox(std::size_t most) {
   std::vector<Outgoing> out;
-  out.swap(outbox_);
+  const auto count = std::min(most, outbox_.size());
+  out.reserve(count);
+  for (std::size_t i = 0; i < count; ++i) {
+    out.push_back(std::move(outbox_.front()));
+    outbox_.pop_front();
+  }
+  outboxBase_ += count;
+  if (outbox_.empty()) pendingUpdates_.clear();
   return out;
 }
 

@@ -9,6 +9,8 @@
 #pragma once
 
 #include <chrono>
+#include <cstdint>
+#include <deque>
 #include <map>
 #include <optional>
 #include <set>
@@ -61,7 +63,12 @@ class Replication {
   // Also subscribe to the meta tuple of an indirect callback when remote.
   void trackIndirectMeta(CallbackId indirect, const TupleRef& meta);
 
-  std::vector<Outgoing> takeOutbox();
+  // Takes up to `most` messages, oldest first.
+  std::vector<Outgoing> takeOutbox(std::size_t most = SIZE_MAX);
+  // Updates replaced in the outbox by a newer value of the same tuple.
+  std::uint64_t coalesced() const { return coalesced_; }
+  // Outbox length above which updates to the same (destination, key) coalesce.
+  static constexpr std::size_t kCoalesceOutboxAbove = 1 << 16;
   bool hasOutgoing() const { return !outbox_.empty(); }
   std::uint64_t staleDropped() const { return staleDropped_; }
   std::uint64_t incarnation() const { return incarnation_; }
@@ -88,7 +95,12 @@ class Replication {
   std::map<CallbackId, SubscriptionHandle> indirectMetas_;
   std::map<PeisId, std::uint64_t> incarnations_;
   std::set<PeisId> reachable_;
-  std::vector<Outgoing> outbox_;
+  void push(Outgoing outgoing);
+  void pushUpdate(PeisId destination, const TuplePtr& tuple);
+  std::deque<Outgoing> outbox_;
+  std::uint64_t outboxBase_ = 0;  // absolute index of outbox_.front()
+  std::map<std::pair<PeisId, std::string>, std::uint64_t> pendingUpdates_;
+  std::uint64_t coalesced_ = 0;
   SubscriptionHandle nextHandle_ = 1;
   std::uint64_t nextWireId_ = 1;
   std::uint64_t staleDropped_ = 0;

@@ -140,7 +140,7 @@ TEST_CASE("flag values at their limits", "[unit][options]") {
   CHECK(parse({"--peis-ecology", std::string(64, 'e')}).ecology == std::string(64, 'e'));
 }
 
-TEST_CASE("--peis-connect and --peis-set-tuple are repeatable", "[unit][options]") {
+TEST_CASE("Options: --peis-connect and --peis-set-tuple are repeatable", "[unit][options]") {
   const auto o = parse({"--peis-connect", "a:1", "--peis-connect=b:2", "--peis-connect", "[::1]:3",
                         "--peis-set-tuple", "x=1", "--peis-set-tuple=y.z=2", "--peis-set-tuple",
                         "eq=a=b", "--peis-set-tuple", "empty="});
@@ -175,7 +175,7 @@ TEST_CASE("'--' stops parsing; the rest is left to the program", "[unit][options
   CHECK(a.argc == 7);
 }
 
-TEST_CASE("--help and -h set help and stay in argv", "[unit][options]") {
+TEST_CASE("Options: --help and -h set help and stay in argv", "[unit][options]") {
   for (const char* flag : {"--help", "-h"}) {
     INFO("flag: " << flag);
     Args a({"prog", "--peis-id", "5", flag, "more"});

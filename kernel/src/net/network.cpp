@@ -32,6 +32,7 @@ namespace {
 constexpr int kMaxHops = 32;
 constexpr std::uint32_t kBeaconMagic = 0x50454942;  // "PEIB"
 constexpr std::size_t kReadChunk = 64 * 1024;
+constexpr std::size_t kWriteChunk = 256 * 1024;
 constexpr std::chrono::milliseconds kAdvertDelay{5};
 constexpr std::chrono::milliseconds kRedialPeriod{1000};
 
@@ -165,6 +166,10 @@ class Network::Impl {
   // Called by links.
   void onFrame(const std::shared_ptr<Link>& link, std::string_view frame);
   void onClosed(const std::shared_ptr<Link>& link, const std::string& reason);
+  // A link finished a write; `backlog` bytes are still queued on it.
+  void onWritten(std::size_t backlog);
+  bool congested();
+  bool congestedSignalled_ = false;
   std::uint16_t listenPort() const {
     boost::system::error_code ec;
     const auto endpoint = acceptor_.local_endpoint(ec);
@@ -236,28 +241,15 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
 
   void sendFrame(std::string_view frame) {
     if (closed_) return;
-    flushUpdates();
-    pending_.append(frame);
-    ++net_.counters_.framesOut;
+    enqueue(frame);
     write();
   }
 
-  // Coalesces an update when the link is backlogged (latest-value semantics).
-  void sendUpdate(const TupleRef& ref, std::string frame) {
+  // Tuple updates are plain frames here; the Kernel coalesces them before
+  // they reach a link, when the links are congested (see congested()).
+  void sendUpdate(std::string frame) {
     if (closed_) return;
-    if (updateOrder_.empty() && backlog() < net_.config_.coalesceAboveBytes) {
-      pending_.append(frame);
-      ++net_.counters_.framesOut;
-      write();
-      return;
-    }
-    auto [it, inserted] = updates_.try_emplace(ref, std::move(frame));
-    if (inserted) {
-      updateOrder_.push_back(ref);
-    } else {
-      it->second = std::move(frame);
-      ++net_.counters_.coalesced;
-    }
+    enqueue(frame);
     write();
   }
 
@@ -276,7 +268,7 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
     if (!writing_) close(reason);
   }
 
-  std::size_t backlog() const { return out_.size() + pending_.size(); }
+  std::size_t backlog() const { return out_.size() + queued_; }
 
   Impl& net_;
   tcp::socket socket_;
@@ -291,23 +283,24 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   PeisId dialTarget_ = 0;  // the beacon peer this link was dialled for
 
  private:
-  void flushUpdates() {
-    for (const auto& ref : updateOrder_) {
-      pending_.append(updates_[ref]);
-      ++net_.counters_.framesOut;
+  // Frames wait in chunks of about kWriteChunk bytes, so the backlog drains
+  // (and coalescing ends) gradually while a slow reader catches up.
+  void enqueue(std::string_view frame) {
+    if (chunks_.empty() || chunks_.back().size() >= kWriteChunk) {
+      chunks_.emplace_back();
+      chunks_.back().reserve(std::max(kWriteChunk, frame.size()));
     }
-    updateOrder_.clear();
-    updates_.clear();
+    chunks_.back().append(frame);
+    queued_ += frame.size();
+    ++net_.counters_.framesOut;
   }
 
   void write() {
     if (writing_ || closed_) return;
-    if (pending_.empty() && !updateOrder_.empty() && backlog() < net_.config_.coalesceAboveBytes) {
-      flushUpdates();
-    }
-    if (pending_.empty()) return;
-    out_.swap(pending_);
-    pending_.clear();
+    if (chunks_.empty()) return;
+    out_ = std::move(chunks_.front());
+    chunks_.pop_front();
+    queued_ -= out_.size();
     writing_ = true;
     asio::async_write(
         socket_, asio::buffer(out_),
@@ -315,11 +308,11 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
           self->writing_ = false;
           self->out_.clear();
           if (ec) return self->close("write failed: " + ec.message());
-          if (!self->closeReason_.empty() && self->pending_.empty()) {
+          if (!self->closeReason_.empty() && self->chunks_.empty()) {
             return self->close(self->closeReason_);
           }
-          if (self->pending_.empty()) self->flushUpdates();
           self->write();
+          self->net_.onWritten(self->backlog());
         });
   }
 
@@ -367,12 +360,29 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
 
   std::string in_;
   std::size_t inPos_ = 0;
-  std::string out_, pending_;
-  std::map<TupleRef, std::string> updates_;
-  std::deque<TupleRef> updateOrder_;
+  std::string out_;
+  std::deque<std::string> chunks_;
+  std::size_t queued_ = 0;
   bool writing_ = false;
   std::string closeReason_;
 };
+
+void Network::Impl::onWritten(std::size_t backlog) {
+  if (congestedSignalled_ && backlog < config_.coalesceAboveBytes / 2 && !congested()) {
+    congestedSignalled_ = false;
+    if (events_.onWritable) events_.onWritable();
+  }
+}
+
+bool Network::Impl::congested() {
+  for (const auto& link : links_) {
+    if (link->backlog() > config_.coalesceAboveBytes) {
+      congestedSignalled_ = true;
+      return true;
+    }
+  }
+  return false;
+}
 
 wire::Hello Network::Impl::hello() const {
   wire::Hello h;
@@ -655,7 +665,7 @@ bool Network::Impl::sendUpdate(PeisId destination, std::uint64_t incarnation, co
   std::string frame;
   wire::encodeTupleUpdate(wire::Envelope{self_, destination, wire::kDefaultTtl}, incarnation, tuple,
                           frame);
-  link->sendUpdate(TupleRef{destination, tuple.fullName()}, std::move(frame));
+  link->sendUpdate(std::move(frame));
   return true;
 }
 
@@ -888,6 +898,7 @@ bool Network::send(wire::RoutedMessage message) { return impl_->send(std::move(m
 bool Network::sendUpdate(PeisId destination, std::uint64_t incarnation, const Tuple& tuple) {
   return impl_->sendUpdate(destination, incarnation, tuple);
 }
+bool Network::congested() { return impl_->congested(); }
 bool Network::reachable(PeisId id) const {
   for (const auto& peer : impl_->peers()) {
     if (peer.id == id) return true;

@@ -74,6 +74,8 @@ class Network {
     std::function<void(const PeerInfo&)> onPeerUp;
     // A PEIS is no longer reachable.
     std::function<void(PeisId)> onPeerDown;
+    // The links drained after congested() said true: send more.
+    std::function<void()> onWritable;
     // Another PEIS that started earlier holds our id: pick a new one.
     std::function<PeisId()> repickId;
   };
@@ -92,8 +94,10 @@ class Network {
   // Routes a message (envelope source is filled in). False when there is no
   // route to the destination (counted).
   bool send(wire::RoutedMessage message);
-  // Sends a tuple update; when the link to the next hop is backlogged, an
-  // update still waiting for the same (owner, key) is replaced (counted).
+  // True while some link has more than coalesceAboveBytes queued; then
+  // Events::onWritable fires once they have drained to half of that.
+  bool congested();
+  // Sends a tuple update encoded straight from the stored tuple.
   bool sendUpdate(PeisId destination, std::uint64_t ownerIncarnation, const Tuple& tuple);
 
   bool reachable(PeisId id) const;

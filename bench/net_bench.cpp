@@ -1,0 +1,512 @@
+// peis-bench-net: the ecology over loopback, measured beside a raw TCP
+// baseline in the same run. Every peer is a separate process (this program
+// re-run with --role). Prints Markdown tables; see docs/performance.md.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <peis/peis.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace {
+
+using namespace std::chrono_literals;
+using Clock = std::chrono::steady_clock;
+
+std::int64_t nowMicros() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(Clock::now().time_since_epoch())
+      .count();
+}
+
+std::string sizeName(std::size_t bytes) {
+  return bytes >= 1024 ? std::to_string(bytes / 1024) + " KiB" : std::to_string(bytes) + " B";
+}
+
+std::map<std::string, std::string> parseFlags(int argc, char** argv) {
+  std::map<std::string, std::string> flags;
+  for (int i = 1; i + 1 < argc; i += 2) flags[argv[i]] = argv[i + 1];
+  return flags;
+}
+
+// A child process running this program in another role, stdout on a pipe.
+class Child {
+ public:
+  explicit Child(std::vector<std::string> args) {
+    int fds[2];
+    if (pipe(fds) != 0) throw std::runtime_error("pipe failed");
+    pid_ = fork();
+    if (pid_ == 0) {
+      dup2(fds[1], 1);
+      close(fds[0]);
+      close(fds[1]);
+      std::vector<char*> argv;
+      static std::string self = "/proc/self/exe";
+      argv.push_back(self.data());
+      for (auto& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      execv("/proc/self/exe", argv.data());
+      _exit(127);
+    }
+    close(fds[1]);
+    out_ = fdopen(fds[0], "r");
+  }
+  Child(const Child&) = delete;
+  ~Child() {
+    if (pid_ > 0) {
+      kill(pid_, SIGKILL);
+      waitpid(pid_, nullptr, 0);
+    }
+    if (out_) fclose(out_);
+  }
+  // Reads one line of the child's stdout (blocking).
+  std::string line() {
+    char buffer[4096];
+    if (!fgets(buffer, sizeof buffer, out_)) return {};
+    std::string text(buffer);
+    if (!text.empty() && text.back() == '\n') text.pop_back();
+    return text;
+  }
+  pid_t pid() const { return pid_; }
+  void stop() {
+    if (pid_ > 0) {
+      kill(pid_, SIGTERM);
+      waitpid(pid_, nullptr, 0);
+      pid_ = -1;
+    }
+  }
+
+ private:
+  pid_t pid_ = -1;
+  FILE* out_ = nullptr;
+};
+
+std::vector<std::string> peisArgs(const std::string& ecology, int id, std::uint16_t connectPort) {
+  std::vector<std::string> args{"--peis-ecology", ecology, "--peis-id", std::to_string(id),
+                                "--peis-no-discovery"};
+  if (connectPort) {
+    args.push_back("--peis-connect");
+    args.push_back("127.0.0.1:" + std::to_string(connectPort));
+  }
+  return args;
+}
+
+peis::Options hostOptions(const std::string& ecology, int id, bool discovery = false) {
+  peis::Options options;
+  options.ecology = ecology;
+  options.id = id;
+  options.name = "bench";
+  options.discovery = discovery;
+  return options;
+}
+
+bool waitFor(const std::function<bool()>& condition, std::chrono::milliseconds deadline) {
+  const auto until = Clock::now() + deadline;
+  while (!condition()) {
+    if (Clock::now() > until) return false;
+    std::this_thread::sleep_for(200us);
+  }
+  return true;
+}
+
+struct Percentiles {
+  double p50, p90, p99;
+};
+Percentiles percentiles(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  auto at = [&](double p) { return v[static_cast<std::size_t>(p * (v.size() - 1))]; };
+  return {at(0.5), at(0.9), at(0.99)};
+}
+
+// ---- roles (child processes) ---------------------------------------------------
+
+bool readFully(int fd, char* data, std::size_t n) {
+  while (n > 0) {
+    const auto got = read(fd, data, n);
+    if (got <= 0) return false;
+    data += got;
+    n -= static_cast<std::size_t>(got);
+  }
+  return true;
+}
+
+int roleTcpEcho() {
+  const int server = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  bind(server, reinterpret_cast<sockaddr*>(&address), sizeof address);
+  listen(server, 1);
+  socklen_t length = sizeof address;
+  getsockname(server, reinterpret_cast<sockaddr*>(&address), &length);
+  std::printf("%d\n", ntohs(address.sin_port));
+  std::fflush(stdout);
+  const int client = accept(server, nullptr, nullptr);
+  int one = 1;
+  setsockopt(client, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+  std::vector<char> buffer(1 << 20);
+  while (true) {
+    std::uint32_t size;
+    if (!readFully(client, reinterpret_cast<char*>(&size), 4)) break;
+    if (!readFully(client, buffer.data(), size)) break;
+    if (write(client, &size, 4) != 4 ||
+        write(client, buffer.data(), size) != static_cast<ssize_t>(size))
+      break;
+  }
+  return 0;
+}
+
+int rolePeisEcho(const std::map<std::string, std::string>& flags) {
+  peis::Options options = hostOptions(flags.at("--ecology"), std::stoi(flags.at("--id")));
+  options.connect.push_back("127.0.0.1:" + flags.at("--connect"));
+  peis::Kernel kernel(options);
+  const int peer = std::stoi(flags.at("--peer"));
+  kernel.onChange(peis::Pattern::exact(peer, "ping"),
+                  [&](const peis::Tuple& t) { kernel.set("pong", t.data); });
+  kernel.subscribe(peis::Pattern::exact(peer, "ping"));
+  kernel.run();
+  return 0;
+}
+
+// Counts the distinct updates of PEER.stream it receives; publishes
+// "received" = "count last-seqno first-us last-us" every 10 ms.
+int roleSink(const std::map<std::string, std::string>& flags) {
+  peis::Options options = hostOptions(flags.at("--ecology"), std::stoi(flags.at("--id")));
+  options.connect.push_back("127.0.0.1:" + flags.at("--connect"));
+  peis::Kernel kernel(options);
+  const int peer = std::stoi(flags.at("--peer"));
+  std::uint64_t count = 0, last = 0;
+  std::int64_t first = 0, lastAt = 0;
+  kernel.onChange(peis::Pattern::exact(peer, "stream"), [&](const peis::Tuple& t) {
+    if (t.seqno <= last) return;
+    if (count++ == 0) first = nowMicros();
+    last = t.seqno;
+    lastAt = nowMicros();
+  });
+  kernel.subscribe(peis::Pattern::exact(peer, "stream"));
+  kernel.every(10ms, [&] {
+    kernel.set("received", std::to_string(count) + " " + std::to_string(last) + " " +
+                               std::to_string(first) + " " + std::to_string(lastAt));
+  });
+  kernel.run();
+  return 0;
+}
+
+int roleJoin(const std::map<std::string, std::string>& flags) {
+  const auto t0 = std::stoll(flags.at("--t0"));
+  peis::Kernel kernel(hostOptions(flags.at("--ecology"), std::stoi(flags.at("--id")), true));
+  const int peer = std::stoi(flags.at("--peer"));
+  auto value = kernel.get(peer, "value", 10s);
+  std::printf("%lld\n", value ? static_cast<long long>(nowMicros() - t0) : -1LL);
+  return 0;
+}
+
+int roleNode(const std::map<std::string, std::string>& flags) {
+  peis::Options options = hostOptions(flags.at("--ecology"), std::stoi(flags.at("--id")), true);
+  options.setTuples.emplace_back("v", flags.at("--id"));
+  peis::Kernel kernel(options);
+  std::printf("up\n");
+  std::fflush(stdout);
+  kernel.run();
+  return 0;
+}
+
+// ---- measurements (parent) -------------------------------------------------------
+
+Percentiles tcpRoundTrip(std::size_t bytes, int count) {
+  Child echo({"--role", "tcp-echo"});
+  const int port = std::stoi(echo.line());
+  const int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(static_cast<std::uint16_t>(port));
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address);
+  int one = 1;
+  setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
+  std::string payload(bytes, 'x');
+  std::vector<char> back(bytes);
+  std::vector<double> micros;
+  const auto size = static_cast<std::uint32_t>(bytes);
+  for (int i = 0; i < count; ++i) {
+    const auto start = Clock::now();
+    if (write(fd, &size, 4) != 4) break;
+    if (write(fd, payload.data(), bytes) != static_cast<ssize_t>(bytes)) break;
+    std::uint32_t got;
+    readFully(fd, reinterpret_cast<char*>(&got), 4);
+    readFully(fd, back.data(), got);
+    micros.push_back(std::chrono::duration<double, std::micro>(Clock::now() - start).count());
+  }
+  close(fd);
+  return percentiles(micros);
+}
+
+Percentiles peisRoundTrip(std::size_t bytes, int count, const std::string& ecology) {
+  peis::Kernel kernel(hostOptions(ecology, 1));
+  Child echo([&] {
+    auto args = std::vector<std::string>{
+        "--role", "peis-echo", "--ecology", ecology,     "--id",
+        "2",      "--peer",    "1",         "--connect", std::to_string(kernel.port())};
+    return args;
+  }());
+  std::mutex mu;
+  std::condition_variable cv;
+  std::string lastPong;
+  kernel.onChange(peis::Pattern::exact(2, "pong"), [&](const peis::Tuple& t) {
+    std::lock_guard lock(mu);
+    lastPong = t.data.substr(0, 16);
+    cv.notify_one();
+  });
+  kernel.subscribe(peis::Pattern::exact(2, "pong"));
+  // Wait until the echo is subscribed to our ping.
+  waitFor([&] { return kernel.get(peis::special::kSubscribers)->data == "2"; }, 10s);
+  std::string payload(bytes, 'x');
+  std::vector<double> micros;
+  for (int i = 0; i < count + 50; ++i) {
+    char tag[17];
+    std::snprintf(tag, sizeof tag, "%016d", i);
+    std::memcpy(payload.data(), tag, std::min<std::size_t>(16, bytes));
+    const std::string expect = payload.substr(0, 16);
+    const auto start = Clock::now();
+    kernel.set("ping", payload);
+    std::unique_lock lock(mu);
+    if (!cv.wait_for(lock, 5s, [&] { return lastPong == expect; })) break;
+    if (i >= 50)
+      micros.push_back(std::chrono::duration<double, std::micro>(Clock::now() - start).count());
+  }
+  if (micros.empty()) return {-1, -1, -1};
+  return percentiles(micros);
+}
+
+struct Throughput {
+  double updatesPerSecond = 0;
+  double megabytesPerSecond = 0;
+  std::uint64_t delivered = 0, written = 0, coalesced = 0;
+};
+
+Throughput streamTo(std::size_t bytes, int sinks, const std::string& ecology,
+                    std::chrono::milliseconds writeFor) {
+  peis::Kernel kernel(hostOptions(ecology, 1));
+  std::vector<std::unique_ptr<Child>> children;
+  for (int i = 0; i < sinks; ++i) {
+    children.push_back(std::make_unique<Child>(std::vector<std::string>{
+        "--role", "sink", "--ecology", ecology, "--id", std::to_string(100 + i), "--peer", "1",
+        "--connect", std::to_string(kernel.port())}));
+  }
+  for (int i = 0; i < sinks; ++i) kernel.subscribe(peis::Pattern::exact(100 + i, "received"));
+  waitFor(
+      [&] {
+        auto s = kernel.get(peis::special::kSubscribers);
+        return s && std::count(s->data.begin(), s->data.end(), ' ') + 1 >= sinks &&
+               !s->data.empty();
+      },
+      20s);
+  const std::string payload(bytes, 'x');
+  const auto start = nowMicros();
+  const auto until = Clock::now() + writeFor;
+  std::uint64_t written = 0, last = 0;
+  while (Clock::now() < until) {
+    for (int i = 0; i < 64; ++i) last = kernel.set("stream", payload).seqno;
+    written += 64;
+  }
+  Throughput result;
+  result.written = written;
+  std::int64_t lastAt = 0;
+  waitFor(
+      [&] {
+        std::uint64_t delivered = 0;
+        std::int64_t latest = 0;
+        for (int i = 0; i < sinks; ++i) {
+          auto r = kernel.get(100 + i, "received");
+          if (!r) return false;
+          std::istringstream in(r->data);
+          std::uint64_t count, seqno;
+          std::int64_t first, at;
+          in >> count >> seqno >> first >> at;
+          if (seqno != last) return false;
+          delivered += count;
+          latest = std::max(latest, at);
+        }
+        result.delivered = delivered;
+        lastAt = latest;
+        return true;
+      },
+      60s);
+  const double seconds = static_cast<double>(lastAt - start) / 1e6;
+  if (seconds > 0) {
+    result.updatesPerSecond = static_cast<double>(result.delivered) / seconds;
+    result.megabytesPerSecond = result.updatesPerSecond * static_cast<double>(bytes) / 1e6;
+  }
+  result.coalesced = kernel.networkStats().coalesced;
+  return result;
+}
+
+double joinMillis(const std::string& ecology) {
+  peis::Kernel kernel(hostOptions(ecology, 1, true));
+  kernel.set("value", "42");
+  std::vector<double> samples;
+  for (int i = 0; i < 5; ++i) {
+    const auto t0 = nowMicros();
+    Child joiner({"--role", "join", "--ecology", ecology, "--id", std::to_string(500 + i), "--peer",
+                  "1", "--t0", std::to_string(t0)});
+    const auto micros = std::stoll(joiner.line());
+    if (micros >= 0) samples.push_back(static_cast<double>(micros) / 1000.0);
+  }
+  if (samples.empty()) return -1;
+  return percentiles(samples).p50;
+}
+
+struct ScaleResult {
+  double secondsToAll = -1;
+  double idleCpuPercent = -1;
+  double rssKib = -1;
+};
+
+long procTicks(pid_t pid) {
+  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+  std::string text((std::istreambuf_iterator<char>(stat)), {});
+  const auto close = text.rfind(')');
+  if (close == std::string::npos) return 0;
+  std::istringstream in(text.substr(close + 2));
+  std::string field;
+  long utime = 0, stime = 0;
+  for (int i = 3; i <= 15 && in >> field; ++i) {
+    if (i == 14) utime = std::stol(field);
+    if (i == 15) stime = std::stol(field);
+  }
+  return utime + stime;
+}
+
+long rssKib(pid_t pid) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmRSS:", 0) == 0) return std::stol(line.substr(6));
+  }
+  return 0;
+}
+
+ScaleResult scale(int n, const std::string& ecology) {
+  ScaleResult result;
+  const auto start = Clock::now();
+  std::vector<std::unique_ptr<Child>> nodes;
+  for (int i = 0; i < n; ++i) {
+    nodes.push_back(std::make_unique<Child>(std::vector<std::string>{
+        "--role", "node", "--ecology", ecology, "--id", std::to_string(1000 + i)}));
+  }
+  peis::Kernel kernel(hostOptions(ecology, 1, true));
+  kernel.subscribe(peis::Pattern("v"));
+  const bool all = waitFor(
+      [&] { return kernel.find(peis::Pattern("v")).size() >= static_cast<std::size_t>(n); }, 60s);
+  if (all) result.secondsToAll = std::chrono::duration<double>(Clock::now() - start).count();
+  std::this_thread::sleep_for(1s);  // let start-up work finish before measuring idle cost
+  std::vector<long> before;
+  for (auto& node : nodes) before.push_back(procTicks(node->pid()));
+  const auto window = 5s;
+  std::this_thread::sleep_for(window);
+  double ticks = 0, rss = 0;
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    ticks += static_cast<double>(procTicks(nodes[i]->pid()) - before[i]);
+    rss += static_cast<double>(rssKib(nodes[i]->pid()));
+  }
+  const double hz = static_cast<double>(sysconf(_SC_CLK_TCK));
+  result.idleCpuPercent = ticks / hz / 5.0 / n * 100.0;
+  result.rssKib = rss / n;
+  return result;
+}
+
+int runAll(const std::string& what) {
+  const std::string ecology = "bench-" + std::to_string(getpid());
+  auto wanted = [&](const char* name) { return what == "all" || what == name; };
+  if (wanted("rtt")) {
+    std::printf(
+        "| round trip | size | raw TCP p50 / p90 / p99 (us) | PEIS p50 / p90 / p99 (us) | PEIS / "
+        "TCP p50 |\n|---|---|---|---|---|\n");
+    for (std::size_t bytes : {16u, 1024u, 65536u}) {
+      const int count = bytes >= 65536 ? 500 : 2000;
+      const auto tcp = tcpRoundTrip(bytes, count);
+      const auto peis = peisRoundTrip(bytes, count, ecology + "-rtt" + std::to_string(bytes));
+      std::printf("| one hop | %s | %.1f / %.1f / %.1f | %.1f / %.1f / %.1f | %.2fx |\n",
+                  sizeName(bytes).c_str(), tcp.p50, tcp.p90, tcp.p99, peis.p50, peis.p90, peis.p99,
+                  peis.p50 / tcp.p50);
+      std::fflush(stdout);
+    }
+    std::printf("\n");
+  }
+  if (wanted("throughput")) {
+    std::printf(
+        "| stream | size | subscribers | written | delivered (distinct) | updates/s delivered | "
+        "MB/s | coalesced |\n|---|---|---|---|---|---|---|---|\n");
+    for (std::size_t bytes : {16u, 1024u, 65536u}) {
+      const auto r = streamTo(bytes, 1, ecology + "-tp" + std::to_string(bytes), 2s);
+      std::printf("| one writer | %s | 1 | %llu | %llu | %.0f | %.1f | %llu |\n",
+                  sizeName(bytes).c_str(), static_cast<unsigned long long>(r.written),
+                  static_cast<unsigned long long>(r.delivered), r.updatesPerSecond,
+                  r.megabytesPerSecond, static_cast<unsigned long long>(r.coalesced));
+      std::fflush(stdout);
+    }
+    const auto r = streamTo(16, 10, ecology + "-fan", 2s);
+    std::printf("| fan-out | 16 B | 10 | %llu | %llu | %.0f | %.1f | %llu |\n\n",
+                static_cast<unsigned long long>(r.written),
+                static_cast<unsigned long long>(r.delivered), r.updatesPerSecond,
+                r.megabytesPerSecond, static_cast<unsigned long long>(r.coalesced));
+    std::fflush(stdout);
+  }
+  if (wanted("join")) {
+    std::printf(
+        "| join | p50 of 5 (ms) |\n|---|---|\n| new PEIS process start -> first value of a "
+        "subscribed tuple | %.1f |\n\n",
+        joinMillis(ecology + "-join"));
+    std::fflush(stdout);
+  }
+  if (wanted("scale")) {
+    std::printf(
+        "| scale | N | all N values seen (s) | idle CPU per PEIS (%%) | RSS per PEIS (KiB) "
+        "|\n|---|---|---|---|---|\n");
+    for (int n : {10, 50, 200}) {
+      const auto r = scale(n, ecology + "-scale" + std::to_string(n));
+      std::printf("| processes on one host | %d | %.2f | %.3f | %.0f |\n", n, r.secondsToAll,
+                  r.idleCpuPercent, r.rssKib);
+      std::fflush(stdout);
+    }
+    std::printf("\n");
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc > 1 && (std::strcmp(argv[1], "--help") == 0 || std::strcmp(argv[1], "-h") == 0)) {
+    std::printf(
+        "Usage: peis-bench-net [all|rtt|throughput|join|scale]\n"
+        "Measures the ecology over loopback beside raw TCP; prints Markdown tables.\n");
+    return 0;
+  }
+  if (argc > 2 && std::strcmp(argv[1], "--role") == 0) {
+    const std::string role = argv[2];
+    const auto flags = parseFlags(argc - 2, argv + 2);
+    if (role == "tcp-echo") return roleTcpEcho();
+    if (role == "peis-echo") return rolePeisEcho(flags);
+    if (role == "sink") return roleSink(flags);
+    if (role == "join") return roleJoin(flags);
+    if (role == "node") return roleNode(flags);
+    return 2;
+  }
+  return runAll(argc > 1 ? argv[1] : "all");
+}
