@@ -1,19 +1,26 @@
 // peis-demo: the most complete demonstration of what the platform does
-// today, run by `./run demo`. One PEIS hosts a lamp component; two simulated
-// light sensors publish into its tuple space; a configurator step points the
-// lamp's input (meta tuple mi-brightness) at one sensor, the sensor fails,
-// the lamp notices the stale input, and the configurator re-points it at the
-// other sensor. Every line of the timeline comes from a real callback.
-// Exits 0 when the lamp ended where the goal says, 1 otherwise.
+// today, run by `./run demo`. Three PEIS in separate processes talk over the
+// real network stack (TCP on loopback, found by discovery): two light
+// sensors, and a host PEIS running a lamp component whose input, meta tuple
+// mi-brightness, a configurator points at sensor A. Sensor A's process is
+// killed; the lamp reports its stale input, the configurator re-points the
+// input at sensor B, the lamp follows. At the end sensor B is told to quit
+// through its kernel.do-quit tuple. Every timeline line comes from a real
+// callback. Exits 0 when the goal is met, 1 otherwise.
 #include <peis/peis.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <iostream>
 #include <mutex>
 #include <string>
 #include <thread>
+#include <vector>
 
 namespace {
 
@@ -31,12 +38,15 @@ functionalities:
     cost: 1
 )";
 
+constexpr peis::PeisId kSensorA = 101;
+constexpr peis::PeisId kSensorB = 102;
+
 class Timeline {
  public:
   void say(const std::string& who, const std::string& what) {
     std::lock_guard lock(mu_);
     const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now() - start_);
-    std::printf("%+7.3fs  %-12s %s\n", static_cast<double>(ms.count()) / 1000.0, who.c_str(),
+    std::printf("%+7.3fs  %-10s %s\n", static_cast<double>(ms.count()) / 1000.0, who.c_str(),
                 what.c_str());
     std::fflush(stdout);
   }
@@ -48,7 +58,7 @@ class Timeline {
 
 // Waits for `condition` or gives up with a clear message.
 bool step(Timeline& timeline, const std::string& goal, const std::function<bool()>& condition,
-          std::chrono::milliseconds deadline = 5s) {
+          std::chrono::milliseconds deadline = 10s) {
   const auto until = Clock::now() + deadline;
   while (!condition()) {
     if (Clock::now() >= until) {
@@ -66,6 +76,55 @@ std::string valueOf(const peis::Kernel& kernel, const std::string& key) {
   return tuple ? tuple->data : std::string();
 }
 
+// A light sensor PEIS (child process): publishes `brightness` every 40 ms,
+// falling from 80 % (dusk) or steady at 85 % (daylight).
+int runSensor(peis::Options options, const std::string& profile) {
+  peis::Kernel kernel(options);
+  std::atomic<int> level{profile == "dusk" ? 80 : 85};
+  kernel.every(40ms, [&] {
+    if (profile == "dusk") level = std::max(10, level - 5);
+    kernel.set("brightness", std::to_string(level.load()));
+  });
+  kernel.run();
+  return 0;
+}
+
+struct Child {
+  pid_t pid = -1;
+  ~Child() {
+    if (pid > 0) {
+      kill(pid, SIGKILL);
+      waitpid(pid, nullptr, 0);
+    }
+  }
+};
+
+pid_t spawnSensor(const std::string& self, peis::PeisId id, const std::string& name,
+                  const std::string& ecology, const std::string& profile) {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    std::vector<std::string> args{
+        self,        "--role",           "sensor",      "--profile", profile,
+        "--peis-id", std::to_string(id), "--peis-name", name,        "--peis-ecology",
+        ecology};
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    execv("/proc/self/exe", argv.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+bool exitedWithin(pid_t pid, std::chrono::milliseconds deadline, int& status) {
+  const auto until = Clock::now() + deadline;
+  while (Clock::now() < until) {
+    if (waitpid(pid, &status, WNOHANG) == pid) return true;
+    std::this_thread::sleep_for(5ms);
+  }
+  return false;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -76,24 +135,31 @@ int main(int argc, char** argv) {
     std::cerr << "peis-demo: " << e.what() << "\n";
     return 2;
   }
+  if (argc == 5 && std::strcmp(argv[1], "--role") == 0 && std::strcmp(argv[3], "--profile") == 0) {
+    return runSensor(options, argv[4]);
+  }
   if (options.help || argc > 1) {
     std::cout << "Usage: peis-demo [options]\n\n"
-                 "Runs a lamp component whose brightness input is configured, fails over\n"
-                 "and is re-configured through meta tuples, and prints the timeline.\n"
-                 "Exits 0 when the goal is met.\n\n"
+                 "Starts two light-sensor PEIS and a lamp component in separate processes,\n"
+                 "configures the lamp's input through a meta tuple, kills a sensor, re-points\n"
+                 "the input, and prints the timeline. Exits 0 when the goal is met.\n\n"
               << peis::Options::helpText();
     return options.help ? 0 : 2;
   }
   if (!options.id) options.id = 6890;
-  if (options.name.empty()) options.name = "demo-home";
+  if (options.name.empty()) options.name = "home-pc";
+  if (options.ecology == "default") options.ecology = "demo-" + std::to_string(getpid());
 
   Timeline timeline;
   peis::Kernel kernel(options);
-  timeline.say("kernel",
-               "PEIS " + std::to_string(kernel.id()) + " '" + kernel.name() + "' up, publishing " +
-                   std::to_string(kernel.find(peis::Pattern("kernel.*", kernel.id())).size()) +
-                   " kernel.* tuples");
+  timeline.say("kernel", "PEIS " + std::to_string(kernel.id()) + " '" + kernel.name() +
+                             "' up on TCP port " + std::to_string(kernel.port()) + ", ecology " +
+                             options.ecology);
 
+  // Joins and leaves, as the kernel.peers tuple shows them.
+  kernel.onChange(peis::Pattern(peis::special::kPeers, kernel.id()), [&](const peis::Tuple& t) {
+    timeline.say("ecology", "reachable PEIS: " + (t.data.empty() ? "(none)" : t.data));
+  });
   // Everything the lamp component publishes goes on the timeline.
   kernel.onChange(peis::Pattern("status", kernel.id()), [&](const peis::Tuple& t) {
     const auto cause = valueOf(kernel, "cause.names");
@@ -101,8 +167,7 @@ int main(int argc, char** argv) {
                  "status = " + t.data + (cause.empty() ? "" : " (cause.names: " + cause + ")"));
   });
   kernel.onChange(peis::Pattern("light.currState", kernel.id()), [&](const peis::Tuple& t) {
-    timeline.say("lamp",
-                 "light.currState = " + t.data + " (seqno " + std::to_string(t.seqno) + ")");
+    timeline.say("lamp", "light.currState = " + t.data);
   });
   kernel.onChange(peis::Pattern("mi-brightness", kernel.id()), [&](const peis::Tuple& t) {
     timeline.say("config", "mi-brightness -> " + (t.data.empty() ? "(nothing)" : t.data));
@@ -116,53 +181,57 @@ int main(int argc, char** argv) {
     const int percent = std::atoi(t.data.c_str());
     const auto current = valueOf(kernel, "light.currState");
     if (percent < 40 && current != "on") {
-      timeline.say("lamp", "brightness " + t.data + "% from " + std::to_string(t.owner) + "." +
-                               t.key + ": too dark, requesting light on");
+      timeline.say("lamp", t.fullName() + " = " + t.data + "%: too dark, light on");
       kernel.set("light.reqState", "on");
     } else if (percent > 60 && current != "off") {
-      timeline.say("lamp",
-                   "brightness " + t.data + "% from " + t.key + ": bright, requesting light off");
+      timeline.say("lamp", t.fullName() + " = " + t.data + "%: bright, light off");
       kernel.set("light.reqState", "off");
     }
   });
   lamp.start();
-
-  // Two light sensors. Sensor A sees the evening fall; sensor B sees daylight.
-  std::atomic<int> dusk{80};
-  auto sensorA = kernel.every(40ms, [&] {
-    dusk = std::max(10, dusk - 5);
-    kernel.set("sensor-a.brightness", std::to_string(dusk.load()));
-  });
-  kernel.every(40ms, [&] { kernel.set("sensor-b.brightness", "85"); });
 
   // A photo request that nobody answers in time expires by itself.
   kernel.onDelete(peis::Pattern("photo.request", kernel.id()), [&](const peis::Tuple& t) {
     timeline.say("kernel", "photo.request '" + t.data + "' expired and was deleted");
   });
 
-  bool ok = step(timeline, "lamp waiting for its input", [&] {
+  const std::string self = argv[0];
+  Child sensorA{spawnSensor(self, kSensorA, "sensor-a", options.ecology, "dusk")};
+  Child sensorB{spawnSensor(self, kSensorB, "sensor-b", options.ecology, "daylight")};
+  timeline.say("demo",
+               "started sensor-a (PEIS 101, dusk) and sensor-b (PEIS 102, daylight) "
+               "as separate processes");
+  auto reachable = [&](peis::PeisId id) {
+    for (const auto& peer : kernel.peers()) {
+      if (peer.id == id) return true;
+    }
+    return false;
+  };
+
+  bool ok = step(timeline, "the lamp waiting for its input", [&] {
     return valueOf(kernel, "status") == "waiting" && valueOf(kernel, "cause.names") == "brightness";
   });
+  ok = ok && step(timeline, "both sensors joining",
+                  [&] { return reachable(kSensorA) && reachable(kSensorB); });
   if (ok) {
-    timeline.say("config", "pointing the lamp's input at sensor A");
-    kernel.setMeta(peis::metaInputKey("brightness"), kernel.id(), "sensor-a.brightness");
-    ok = step(timeline, "lamp running on sensor A",
+    timeline.say("config", "pointing the lamp's input at sensor-a's brightness");
+    kernel.setMeta(peis::metaInputKey("brightness"), kSensorA, "brightness");
+    ok = step(timeline, "lamp running on sensor-a",
               [&] { return valueOf(kernel, "status") == "running"; });
   }
+  ok = ok && step(timeline, "light on at dusk",
+                  [&] { return valueOf(kernel, "light.currState") == "on"; });
   if (ok) {
-    ok = step(timeline, "light on at dusk",
-              [&] { return valueOf(kernel, "light.currState") == "on"; });
-  }
-  if (ok) {
-    timeline.say("sensor-a", "fails (stops publishing)");
-    kernel.cancelTimer(sensorA);
-    ok = step(timeline, "lamp noticing the stale input",
+    timeline.say("demo", "kill -9 sensor-a (pid " + std::to_string(sensorA.pid) + ")");
+    kill(sensorA.pid, SIGKILL);
+    ok = step(timeline, "the lamp noticing its stale input",
               [&] { return valueOf(kernel, "status") == "waiting"; });
+    ok = ok && step(timeline, "sensor-a leaving the ecology", [&] { return !reachable(kSensorA); });
   }
   if (ok) {
-    timeline.say("config", "re-pointing the lamp's input at sensor B");
-    kernel.setMeta(peis::metaInputKey("brightness"), kernel.id(), "sensor-b.brightness");
-    ok = step(timeline, "lamp running on sensor B, light off", [&] {
+    timeline.say("config", "re-pointing the lamp's input at sensor-b's brightness");
+    kernel.setMeta(peis::metaInputKey("brightness"), kSensorB, "brightness");
+    ok = step(timeline, "lamp running on sensor-b, light off", [&] {
       return valueOf(kernel, "status") == "running" && valueOf(kernel, "light.currState") == "off";
     });
   }
@@ -178,13 +247,25 @@ int main(int argc, char** argv) {
     const auto log = kernel.get("demo.log");
     timeline.say("kernel", "demo.log appended atomically: '" + log->data + "' (seqno " +
                                std::to_string(log->seqno) + ")");
-    const auto functionalities = valueOf(kernel, "functionalities");
-    timeline.say("lamp", "advertises functionality '" + functionalities + "' with inputs '" +
+    timeline.say("lamp", "advertises functionality '" + valueOf(kernel, "functionalities") +
+                             "' with inputs '" +
                              valueOf(kernel, "functionality.illuminate.inputs") + "'");
+    timeline.say("demo",
+                 "setting 102.kernel.do-quit = yes (a remote write, accepted by its owner)");
+    kernel.set(kSensorB, peis::special::kDoQuit, "yes");
+    int status = 0;
+    ok = exitedWithin(sensorB.pid, 10s, status) && WIFEXITED(status) && WEXITSTATUS(status) == 0;
+    if (ok) {
+      sensorB.pid = -1;
+      timeline.say("sensor-b", "exited cleanly with status 0");
+    } else {
+      timeline.say("demo", "FAILED: sensor-b did not exit cleanly");
+    }
+  }
+  if (ok) {
     timeline.say("demo", "goal met: setting kernel.do-quit = yes");
     kernel.set(peis::special::kDoQuit, "yes");
     ok = kernel.runFor(5s);
-    if (!ok) timeline.say("demo", "FAILED: the kernel did not quit");
   }
   timeline.say("demo", ok ? "SUCCESS" : "FAILURE");
   return ok ? 0 : 1;
