@@ -558,6 +558,11 @@ void Network::Impl::onHello(const std::shared_ptr<Link>& link, const wire::Hello
     return collision(hello.incarnation);
   }
   if (auto existing = linkTo(hello.id)) {
+    if (existing->peer_.incarnation != hello.incarnation) {
+      ++counters_.idCollisions;
+      return link->close("PEIS " + std::to_string(hello.id) +
+                         " is already linked with another incarnation");
+    }
     // Keep the link the lower id dialled, so both ends keep the same one.
     const bool keepNew = (self_ < hello.id) == link->outbound_;
     if (!keepNew || existing->outbound_ == link->outbound_) {
