@@ -599,7 +599,11 @@ void Network::Impl::collision(std::uint64_t otherIncarnation) {
 void Network::Impl::onRouted(const std::shared_ptr<Link>& link, std::string_view frame,
                              wire::RoutedMessage&& message) {
   const auto& envelope = message.envelope;
-  if (envelope.source == self_ || !routes_.count(envelope.source)) {
+  // A linked PEIS always sends over its own link, so a frame claiming its id
+  // from another link is spoofed.
+  const auto direct = linkTo(envelope.source);
+  if (envelope.source == self_ || !routes_.count(envelope.source) ||
+      (direct && direct != link)) {
     ++counters_.malformedFrames;
     log::warn(self_, "dropped a frame from " + link->remote_ + " with spoofed or unknown source " +
                          std::to_string(envelope.source));
