@@ -184,8 +184,11 @@ void Replication::renew() {
 
 void Replication::onPeerUp(PeisId peer, std::uint64_t incarnation) {
   reachable_.insert(peer);
-  auto known = incarnations_.find(peer);
-  if (known != incarnations_.end() && known->second != incarnation) {
+  // Remember the incarnation even of a peer that never sent a tuple: a
+  // subscriber that restarts numbers its subscriptions from 1 again, and
+  // those of its old life must not pass for renewals (no full sync).
+  auto [known, firstSeen] = incarnations_.try_emplace(peer, incarnation);
+  if (!firstSeen && known->second != incarnation) {
     remote_.erase(peer);  // subscriptions of its previous life
     if (known->second < incarnation) {
       space_.forgetOwner(peer);

@@ -1,0 +1,79 @@
+#!/usr/bin/env bash
+# Fuzzes the wire decoder with libFuzzer for a bounded time.
+#
+#   tests/fuzz/run_fuzz.sh BUILD_DIR
+#
+# Compiles tests/fuzz/wire_fuzz.cpp with clang++ (-fsanitize=fuzzer,address,
+# undefined) into BUILD_DIR/fuzz/, writes a seed corpus of valid frames with
+# tests/fuzz/write_seeds.cpp, and runs the fuzzer for PEIS_FUZZ_SECONDS
+# (default 20). Exits non-zero when the fuzzer finds a crash, a leak or a
+# sanitizer error (the input is kept as BUILD_DIR/fuzz/crash-*), and 0 with
+# a note when clang++ or libFuzzer is missing (Debian 12: packages clang and
+# libclang-rt-14-dev, which ./run installs).
+set -euo pipefail
+
+root=$(cd "$(dirname "$0")/../.." && pwd)
+build=${1:?usage: run_fuzz.sh BUILD_DIR}
+mkdir -p "$build"
+build=$(cd "$build" && pwd)
+out="$build/fuzz"
+seconds=${PEIS_FUZZ_SECONDS:-20}
+
+skip() {
+  echo "wire fuzzing skipped: $*"
+  exit 0
+}
+
+cxx=${PEIS_FUZZ_CXX:-}
+if [ -z "$cxx" ]; then
+  for candidate in clang++ clang++-14 clang++-15 clang++-16 clang++-17 clang++-18; do
+    if command -v "$candidate" >/dev/null 2>&1; then
+      cxx=$candidate
+      break
+    fi
+  done
+fi
+[ -n "$cxx" ] || skip "no clang++ found (install clang)"
+
+mkdir -p "$out"
+# Can this compiler link a libFuzzer target at all?
+probe="$out/probe.cpp"
+cat >"$probe" <<'PROBE'
+#include <cstddef>
+#include <cstdint>
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t*, std::size_t) { return 0; }
+PROBE
+if ! "$cxx" -fsanitize=fuzzer,address,undefined "$probe" -o "$out/probe" >"$out/probe.log" 2>&1; then
+  cat "$out/probe.log"
+  skip "$cxx cannot link -fsanitize=fuzzer (install libclang-rt-14-dev or your clang's libFuzzer)"
+fi
+
+flags=(-std=c++20 -O1 -g -I "$root/kernel/include" -I "$root/kernel/src")
+sources=("$root/kernel/src/net/wire.cpp" "$root/kernel/src/key.cpp")
+
+echo "==> compiling the wire fuzzer with $cxx"
+"$cxx" "${flags[@]}" -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
+  -fno-omit-frame-pointer "$root/tests/fuzz/wire_fuzz.cpp" "${sources[@]}" -o "$out/wire_fuzz"
+"$cxx" "${flags[@]}" "$root/tests/fuzz/write_seeds.cpp" "${sources[@]}" -o "$out/write_seeds"
+
+rm -rf "$out/seeds" "$out/corpus"
+mkdir -p "$out/seeds" "$out/corpus"
+"$out/write_seeds" "$out/seeds"
+rm -f "$out"/crash-* "$out"/leak-* "$out"/timeout-* "$out"/oom-*
+
+echo "==> fuzzing wire::decode for ${seconds}s"
+status=0
+# New inputs go to corpus/ (the first directory); the seeds stay as written.
+ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1} UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1} \
+  "$out/wire_fuzz" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=4096 \
+  -print_final_stats=1 -artifact_prefix="$out/" "$out/corpus" "$out/seeds" \
+  >"$out/fuzz.log" 2>&1 || status=$?
+tail -n 25 "$out/fuzz.log"
+if [ "$status" -ne 0 ]; then
+  echo "wire fuzzer failed (exit $status); full log: $out/fuzz.log" >&2
+  for artifact in "$out"/crash-* "$out"/leak-* "$out"/timeout-* "$out"/oom-*; do
+    [ -e "$artifact" ] && echo "reproduce with: $out/wire_fuzz $artifact" >&2
+  done
+  exit 1
+fi
+echo "wire fuzzer: no crash in ${seconds}s"

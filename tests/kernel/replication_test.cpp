@@ -1,0 +1,636 @@
+// Unit tests of Replication alone: a TupleSpace with a manual clock and a
+// Replication over it, driven the way the Kernel drives them (the space's
+// observer feeds onLocalEvent; network events call the on* methods), with
+// the decisions read from takeOutbox(). No sockets, no threads, no sleeping.
+#include "replication.h"
+
+#include <catch2/catch.hpp>
+#include <chrono>
+#include <cstdint>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "net/wire.h"
+#include "peis/error.h"
+#include "peis/pattern.h"
+#include "peis/tuple.h"
+#include "support/wait_for.h"
+#include "tuple_space.h"
+
+using namespace std::chrono_literals;
+using peis::ErrorCode;
+using peis::EventKind;
+using peis::Pattern;
+using peis::PeisId;
+using peis::Replication;
+using peis::Tuple;
+using peis::TuplePtr;
+using peis::TupleRef;
+using peis::TupleSpace;
+namespace wire = peis::wire;
+
+namespace {
+
+constexpr PeisId kSelf = 1;
+constexpr std::uint64_t kIncarnation = 100;
+constexpr auto kLease = 6000ms;
+
+// One PEIS's space and replication, wired as the Kernel wires them.
+struct Fixture {
+  peis::test::ManualClock clock;
+  TupleSpace space{kSelf, [this] { return clock.now; }};
+  Replication replication{space, kIncarnation, kLease};
+  Replication::SteadyTime now = Replication::SteadyTime{} + 1000s;
+
+  Fixture() {
+    space.setObserver(
+        [this](EventKind kind, const TuplePtr& t) { replication.onLocalEvent(kind, t); });
+    space.setRetargetObserver(
+        [this](peis::CallbackId id, const std::optional<TupleRef>&,
+               const std::optional<TupleRef>& to) { replication.onRetarget(id, to); });
+  }
+
+  std::vector<Replication::Outgoing> take() { return replication.takeOutbox(); }
+};
+
+wire::Subscribe subscribeMsg(std::uint64_t id, std::string pattern,
+                             std::optional<PeisId> owner = kSelf,
+                             std::uint32_t leaseMs = static_cast<std::uint32_t>(kLease.count())) {
+  return wire::Subscribe{id, leaseMs, owner, std::move(pattern)};
+}
+
+template <typename T>
+const T* bodyAs(const Replication::Outgoing& out) {
+  if (!out.body) return nullptr;
+  return std::get_if<T>(&*out.body);
+}
+
+// The keys of the tuple updates in `outbox` for `destination`.
+std::multiset<std::string> updatedKeys(const std::vector<Replication::Outgoing>& outbox,
+                                       PeisId destination) {
+  std::multiset<std::string> keys;
+  for (const auto& out : outbox) {
+    if (out.destination == destination && out.update) keys.insert(out.update->key);
+  }
+  return keys;
+}
+
+Tuple remoteTuple(PeisId owner, std::string key, std::string data, std::uint64_t seqno) {
+  Tuple t;
+  t.owner = owner;
+  t.creator = owner;
+  t.key = std::move(key);
+  t.data = std::move(data);
+  t.seqno = seqno;
+  t.ts_write = peis::Timestamp(std::chrono::seconds(1'700'000'000));
+  return t;
+}
+
+wire::Write writeMsg(std::uint64_t request, wire::WriteOp op, std::string key, std::string data,
+                     std::optional<std::uint64_t> ifSeqno = std::nullopt, PeisId owner = kSelf) {
+  wire::Write w;
+  w.request = request;
+  w.op = op;
+  w.ifSeqno = ifSeqno;
+  w.tuple.owner = owner;
+  w.tuple.creator = 9;
+  w.tuple.key = std::move(key);
+  w.tuple.data = std::move(data);
+  return w;
+}
+
+// The one WriteResult in `outbox`, checked to go to `destination`.
+wire::WriteResult onlyResult(const std::vector<Replication::Outgoing>& outbox, PeisId destination) {
+  std::vector<wire::WriteResult> results;
+  for (const auto& out : outbox) {
+    if (const auto* r = bodyAs<wire::WriteResult>(out)) {
+      CHECK(out.destination == destination);
+      results.push_back(*r);
+    }
+  }
+  REQUIRE(results.size() == 1);
+  return results.front();
+}
+
+std::uint8_t statusOf(ErrorCode code) {
+  return static_cast<std::uint8_t>(static_cast<int>(code) + 1);
+}
+
+}  // namespace
+
+TEST_CASE("replication owner side: subscriptions, full sync, updates, leases",
+          "[unit][replication]") {
+  Fixture f;
+  f.space.set("robot.x", "1");
+  f.space.set("robot.y", "2");
+  f.space.set("other.z", "3");
+  CHECK(f.take().empty());  // nobody subscribed yet
+
+  SECTION("a new subscription gets a full sync of the matching own tuples") {
+    f.replication.onSubscribe(9, subscribeMsg(1, "robot.*"), f.now);
+    const auto outbox = f.take();
+    CHECK(updatedKeys(outbox, 9) == std::multiset<std::string>{"robot.x", "robot.y"});
+    CHECK(outbox.size() == 2);
+    for (const auto& out : outbox) CHECK_FALSE(out.body);
+    CHECK(f.replication.subscribers() == std::vector<PeisId>{9});
+
+    // Renewal with the same subscription id: no second sync.
+    f.replication.onSubscribe(9, subscribeMsg(1, "robot.*"), f.now + 2s);
+    CHECK(f.take().empty());
+
+    // A second pattern of the same subscriber is a new subscription.
+    f.replication.onSubscribe(9, subscribeMsg(2, "**", std::nullopt), f.now);
+    CHECK(updatedKeys(f.take(), 9) == std::multiset<std::string>{"robot.x", "robot.y", "other.z"});
+
+    // A later own set: one update to 9 although both of its patterns match.
+    f.space.set("robot.x", "10");
+    auto later = f.take();
+    REQUIRE(later.size() == 1);
+    CHECK(later[0].destination == 9);
+    REQUIRE(later[0].update);
+    CHECK(later[0].update->data == "10");
+    CHECK(later[0].update->seqno == 2);
+
+    // Only the second pattern matches other.z.
+    f.space.set("other.z", "30");
+    CHECK(updatedKeys(f.take(), 9) == std::multiset<std::string>{"other.z"});
+  }
+
+  SECTION("every matching subscriber gets its own copy; others none") {
+    f.replication.onSubscribe(9, subscribeMsg(1, "robot.x"), f.now);
+    f.replication.onSubscribe(4, subscribeMsg(1, "robot.**"), f.now);
+    f.replication.onSubscribe(5, subscribeMsg(1, "other.*"), f.now);
+    f.take();
+    f.space.set("robot.x", "new");
+    const auto outbox = f.take();
+    CHECK(updatedKeys(outbox, 9) == std::multiset<std::string>{"robot.x"});
+    CHECK(updatedKeys(outbox, 4) == std::multiset<std::string>{"robot.x"});
+    CHECK(updatedKeys(outbox, 5).empty());
+    CHECK(outbox.size() == 2);
+  }
+
+  SECTION("takeOutbox takes the oldest messages first, at most as many as asked") {
+    f.replication.onSubscribe(9, subscribeMsg(1, "robot.*"), f.now);
+    f.space.set("robot.x", "later");
+    auto first = f.replication.takeOutbox(2);
+    REQUIRE(first.size() == 2);
+    CHECK(f.replication.hasOutgoing());
+    auto rest = f.take();
+    REQUIRE(rest.size() == 1);
+    CHECK(rest[0].update->data == "later");
+    CHECK_FALSE(f.replication.hasOutgoing());
+  }
+
+  SECTION("an overfull outbox keeps only the newest waiting update per (destination, key)") {
+    f.replication.onSubscribe(9, subscribeMsg(1, "**", std::nullopt), f.now);
+    f.replication.onSubscribe(4, subscribeMsg(1, "fill.*"), f.now);
+    const auto fill = Replication::kCoalesceOutboxAbove;
+    // Three synced tuples, then two updates (to 9 and 4) per distinct key.
+    for (std::size_t i = 0; i < fill / 2; ++i) f.space.set("fill.k" + std::to_string(i), "x");
+    CHECK(f.replication.coalesced() == 0);
+    f.space.set("robot.x", "v1");  // queued behind a full outbox: may be replaced
+    f.space.set("robot.x", "v2");
+    f.space.set("robot.x", "v3");
+    CHECK(f.replication.coalesced() == 2);
+    // Another message to 9 ends coalescing for 9: no update jumps over it.
+    f.space.erase("robot.y");
+    f.space.set("robot.x", "v4");
+    CHECK(f.replication.coalesced() == 2);
+
+    std::vector<std::string> toNine;
+    for (const auto& out : f.take()) {
+      if (out.destination != 9) continue;
+      if (out.update && out.update->key == "robot.x") toNine.push_back(out.update->data);
+      if (bodyAs<wire::TupleDeleted>(out))
+        toNine.push_back("deleted " + bodyAs<wire::TupleDeleted>(out)->key);
+    }
+    CHECK(toNine == std::vector<std::string>{"1", "v3", "deleted robot.y", "v4"});
+  }
+
+  SECTION("a subscription for another owner is ignored") {
+    f.replication.onSubscribe(9, subscribeMsg(1, "**", PeisId{5}), f.now);
+    CHECK(f.take().empty());
+    CHECK(f.replication.subscribers().empty());
+    f.space.set("robot.x", "new");
+    CHECK(f.take().empty());
+  }
+
+  SECTION("a delete is sent as TupleDeleted with the delete's seqno") {
+    f.replication.onSubscribe(9, subscribeMsg(1, "robot.*"), f.now);
+    f.take();
+    REQUIRE(f.space.erase("robot.y"));
+    const auto outbox = f.take();
+    REQUIRE(outbox.size() == 1);
+    CHECK(outbox[0].destination == 9);
+    CHECK_FALSE(outbox[0].update);
+    const auto* deleted = bodyAs<wire::TupleDeleted>(outbox[0]);
+    REQUIRE(deleted);
+    CHECK(deleted->ownerIncarnation == kIncarnation);
+    CHECK(deleted->owner == kSelf);
+    CHECK(deleted->key == "robot.y");
+    CHECK(deleted->seqno == 2);  // set was 1, the delete 2
+    CHECK(deleted->seqno == f.space.seqno(kSelf, "robot.y"));
+
+    f.space.erase("other.z");  // matches no subscription
+    CHECK(f.take().empty());
+  }
+
+  SECTION("an unsubscribe stops updates") {
+    f.replication.onSubscribe(9, subscribeMsg(1, "robot.*"), f.now);
+    f.replication.onSubscribe(9, subscribeMsg(2, "other.*"), f.now);
+    f.take();
+    f.replication.onUnsubscribe(9, 1);
+    f.space.set("robot.x", "new");
+    CHECK(f.take().empty());
+    CHECK(f.replication.subscribers() == std::vector<PeisId>{9});
+    f.replication.onUnsubscribe(9, 2);
+    CHECK(f.replication.subscribers().empty());
+    f.replication.onUnsubscribe(9, 3);  // unknown: harmless
+    f.replication.onUnsubscribe(8, 1);
+  }
+
+  SECTION("leases: kept while renewed, dropped once they run out") {
+    f.replication.onSubscribe(9, subscribeMsg(1, "robot.*"), f.now);
+    f.take();
+    CHECK_FALSE(f.replication.expireLeases(f.now + kLease - 1ms));
+    CHECK_FALSE(f.replication.expireLeases(f.now + kLease));
+    // A renewal at +4 s moves the end of the lease to +10 s.
+    f.replication.onSubscribe(9, subscribeMsg(1, "robot.*"), f.now + 4s);
+    CHECK(f.take().empty());
+    CHECK_FALSE(f.replication.expireLeases(f.now + 4s + kLease));
+    CHECK(f.replication.subscribers() == std::vector<PeisId>{9});
+    CHECK(f.replication.expireLeases(f.now + 4s + kLease + 1ms));
+    CHECK(f.replication.subscribers().empty());
+    f.space.set("robot.x", "new");
+    CHECK(f.take().empty());
+    CHECK_FALSE(f.replication.expireLeases(f.now + 100s));
+  }
+
+  SECTION("a lease shorter than 300 ms is taken as 300 ms") {
+    f.replication.onSubscribe(9, subscribeMsg(1, "robot.*", kSelf, 0), f.now);
+    CHECK_FALSE(f.replication.expireLeases(f.now + 300ms));
+    CHECK(f.replication.expireLeases(f.now + 301ms));
+  }
+
+  SECTION("onPeerDown forgets the peer's subscriptions") {
+    f.replication.onSubscribe(9, subscribeMsg(1, "robot.*"), f.now);
+    f.take();
+    f.replication.onPeerDown(9);
+    CHECK(f.replication.subscribers().empty());
+    f.space.set("robot.x", "new");
+    CHECK(f.take().empty());
+  }
+
+  SECTION("a subscriber that restarts loses its old subscriptions") {
+    f.replication.onPeerUp(9, 90);
+    f.replication.onSubscribe(9, subscribeMsg(1, "robot.*"), f.now);
+    REQUIRE(f.replication.onUpdate(9, wire::TupleUpdate{90, remoteTuple(9, "k", "v", 1)}));
+    f.take();
+    f.replication.onPeerUp(9, 91);
+    CHECK(f.replication.subscribers().empty());
+  }
+
+  SECTION("a restarted subscriber that reuses a subscription id still gets a full sync") {
+    // PEIS 9 never sent us a tuple: only its route told us its incarnation.
+    // It restarts without its route ever going down, and its new life
+    // numbers subscriptions from 1 again.
+    f.replication.onPeerUp(9, 90);
+    f.replication.onSubscribe(9, subscribeMsg(1, "other.*"), f.now);
+    CHECK(updatedKeys(f.take(), 9) == std::multiset<std::string>{"other.z"});
+    f.replication.onPeerUp(9, 91);
+    CHECK(f.replication.subscribers().empty());
+    f.take();
+    f.replication.onSubscribe(9, subscribeMsg(1, "robot.*"), f.now + 1s);
+    CHECK(updatedKeys(f.take(), 9) == std::multiset<std::string>{"robot.x", "robot.y"});
+  }
+}
+
+TEST_CASE("replication owner side: remote writes", "[unit][replication]") {
+  Fixture f;
+  f.replication.onSubscribe(4, subscribeMsg(1, "**"), f.now);
+  f.take();
+
+  SECTION("set") {
+    auto w = writeMsg(11, wire::WriteOp::Set, "door.open", "yes");
+    w.tuple.mimetype = "text/x-bool";
+    w.ttlMicros = 5'000'000;
+    const auto result = f.replication.onWrite(9, w);
+    CHECK(result.request == 11);
+    CHECK(result.status == 0);
+    CHECK(result.seqno == 1);
+    const auto outbox = f.take();
+    CHECK(onlyResult(outbox, 9) == result);
+    CHECK(updatedKeys(outbox, 4) == std::multiset<std::string>{"door.open"});
+    const auto stored = f.space.get(kSelf, "door.open");
+    REQUIRE(stored);
+    CHECK(stored->data == "yes");
+    CHECK(stored->creator == 9);
+    CHECK(stored->owner == kSelf);
+    CHECK(stored->mimetype == "text/x-bool");
+    CHECK(stored->ts_expire == f.clock.now + 5s);
+  }
+
+  SECTION("append, with an if-seqno that holds and one that no longer does") {
+    auto r1 = f.replication.onWrite(9, writeMsg(1, wire::WriteOp::Append, "log", "a"));
+    CHECK(r1.status == 0);
+    CHECK(r1.seqno == 1);
+    auto r2 = f.replication.onWrite(9, writeMsg(2, wire::WriteOp::Append, "log", "b", 1u));
+    CHECK(r2.status == 0);
+    CHECK(r2.seqno == 2);
+    CHECK(f.space.get(kSelf, "log")->data == "ab");
+    f.take();
+
+    auto conflict = f.replication.onWrite(9, writeMsg(3, wire::WriteOp::Append, "log", "c", 1u));
+    CHECK(conflict.request == 3);
+    CHECK(conflict.status == statusOf(ErrorCode::Conflict));
+    CHECK(conflict.seqno == 0);
+    CHECK_FALSE(conflict.message.empty());
+    CHECK(f.space.get(kSelf, "log")->data == "ab");
+    const auto outbox = f.take();
+    CHECK(onlyResult(outbox, 9) == conflict);
+    CHECK(updatedKeys(outbox, 4).empty());
+
+    // if-seqno 0: only while the key does not exist.
+    CHECK(f.replication.onWrite(9, writeMsg(4, wire::WriteOp::Append, "fresh", "x", 0u)).status ==
+          0);
+    CHECK(f.replication.onWrite(9, writeMsg(5, wire::WriteOp::Append, "fresh", "y", 0u)).status ==
+          statusOf(ErrorCode::Conflict));
+  }
+
+  SECTION("erase") {
+    f.space.set("gone", "x");
+    f.take();
+    const auto result = f.replication.onWrite(9, writeMsg(6, wire::WriteOp::Erase, "gone", ""));
+    CHECK(result.status == 0);
+    CHECK(result.seqno == 2);
+    CHECK_FALSE(f.space.get(kSelf, "gone"));
+    const auto outbox = f.take();
+    CHECK(onlyResult(outbox, 9) == result);
+    bool deleteSent = false;
+    for (const auto& out : outbox) {
+      if (const auto* d = bodyAs<wire::TupleDeleted>(out)) {
+        deleteSent = out.destination == 4 && d->key == "gone" && d->seqno == 2;
+      }
+    }
+    CHECK(deleteSent);
+
+    // Erasing what is absent succeeds with seqno 0.
+    const auto absent = f.replication.onWrite(9, writeMsg(7, wire::WriteOp::Erase, "never", ""));
+    CHECK(absent.status == 0);
+    CHECK(absent.seqno == 0);
+  }
+
+  SECTION("a write for another owner is refused") {
+    const auto result = f.replication.onWrite(9, writeMsg(8, wire::WriteOp::Set, "k", "v", {}, 5));
+    CHECK(result.request == 8);
+    CHECK(result.status == statusOf(ErrorCode::Refused));
+    CHECK(result.message.find("does not own") != std::string::npos);
+    CHECK(f.space.size() == 0);
+    CHECK(onlyResult(f.take(), 9) == result);
+  }
+
+  SECTION("a write the space rejects reports the space's error") {
+    auto w = writeMsg(9, wire::WriteOp::Set, "k", "v");
+    w.tuple.mimetype = std::string(peis::kMaxMimetypeBytes + 1, 'm');
+    const auto result = f.replication.onWrite(9, w);
+    CHECK(result.status == statusOf(ErrorCode::InvalidArgument));
+    CHECK(f.space.size() == 0);
+  }
+}
+
+TEST_CASE("replication subscriber side", "[unit][replication]") {
+  Fixture f;
+  f.replication.onPeerUp(2, 20);
+  f.replication.onPeerUp(3, 30);
+  CHECK(f.take().empty());  // nothing subscribed yet
+
+  const auto any = f.replication.subscribe(Pattern("x.**"));
+  auto outbox = f.take();
+  REQUIRE(outbox.size() == 2);
+  std::map<PeisId, std::uint64_t> anyIds;
+  for (const auto& out : outbox) {
+    const auto* s = bodyAs<wire::Subscribe>(out);
+    REQUIRE(s);
+    CHECK_FALSE(s->owner);
+    CHECK(s->keyPattern == "x.**");
+    CHECK(s->leaseMs == kLease.count());
+    anyIds[out.destination] = s->subscription;
+  }
+  REQUIRE(anyIds.size() == 2);
+  CHECK(anyIds.count(2));
+  CHECK(anyIds.count(3));
+  CHECK(anyIds[2] != anyIds[3]);
+
+  SECTION("an owner-specific subscription goes to that owner only") {
+    f.replication.subscribe(Pattern("k", PeisId{3}));
+    outbox = f.take();
+    REQUIRE(outbox.size() == 1);
+    CHECK(outbox[0].destination == 3);
+    const auto* s = bodyAs<wire::Subscribe>(outbox[0]);
+    REQUIRE(s);
+    CHECK(s->owner == PeisId{3});
+    CHECK(s->keyPattern == "k");
+
+    f.replication.subscribe(Pattern("k", kSelf));      // own tuples: nothing to send
+    f.replication.subscribe(Pattern("k", PeisId{8}));  // unreachable owner: later
+    CHECK(f.take().empty());
+    f.replication.onPeerUp(8, 80);
+    outbox = f.take();
+    std::set<std::string> toEight;
+    for (const auto& out : outbox) {
+      CHECK(out.destination == 8);
+      if (const auto* sub = bodyAs<wire::Subscribe>(out)) toEight.insert(sub->keyPattern);
+    }
+    CHECK(toEight == std::set<std::string>{"x.**", "k"});
+  }
+
+  SECTION("a new peer gets a Subscribe") {
+    f.replication.onPeerUp(4, 40);
+    outbox = f.take();
+    REQUIRE(outbox.size() == 1);
+    CHECK(outbox[0].destination == 4);
+    const auto* s = bodyAs<wire::Subscribe>(outbox[0]);
+    REQUIRE(s);
+    CHECK(s->keyPattern == "x.**");
+    CHECK(s->subscription != anyIds[2]);
+    CHECK(s->subscription != anyIds[3]);
+  }
+
+  SECTION("renew re-sends every subscription with the same id") {
+    f.replication.renew();
+    outbox = f.take();
+    REQUIRE(outbox.size() == 2);
+    for (const auto& out : outbox) {
+      const auto* s = bodyAs<wire::Subscribe>(out);
+      REQUIRE(s);
+      CHECK(s->subscription == anyIds[out.destination]);
+    }
+  }
+
+  SECTION("updates: newer seqnos accepted, stale ones rejected") {
+    CHECK(f.replication.onUpdate(2, wire::TupleUpdate{20, remoteTuple(2, "x.a", "5", 5)}));
+    CHECK(f.space.get(2, "x.a")->data == "5");
+    const auto staleBefore = f.replication.staleDropped();
+    CHECK_FALSE(f.replication.onUpdate(2, wire::TupleUpdate{20, remoteTuple(2, "x.a", "4", 4)}));
+    CHECK_FALSE(f.replication.onUpdate(2, wire::TupleUpdate{20, remoteTuple(2, "x.a", "5b", 5)}));
+    CHECK(f.space.get(2, "x.a")->data == "5");
+    CHECK(f.replication.onUpdate(2, wire::TupleUpdate{20, remoteTuple(2, "x.a", "6", 6)}));
+    CHECK(f.space.get(2, "x.a")->data == "6");
+    CHECK(f.replication.staleDropped() == staleBefore);  // stale seqnos are the space's call
+
+    // Deletes follow the same order.
+    CHECK_FALSE(f.replication.onDeleted(2, wire::TupleDeleted{20, 2, "x.a", 6}));
+    CHECK(f.space.get(2, "x.a"));
+    CHECK(f.replication.onDeleted(2, wire::TupleDeleted{20, 2, "x.a", 7}));
+    CHECK_FALSE(f.space.get(2, "x.a"));
+    CHECK(f.take().empty());  // nothing is sent back for others' tuples
+  }
+
+  SECTION("an update or delete whose owner is not the source is rejected") {
+    const auto before = f.replication.staleDropped();
+    CHECK_FALSE(f.replication.onUpdate(3, wire::TupleUpdate{30, remoteTuple(2, "x.a", "s", 1)}));
+    CHECK_FALSE(f.space.get(2, "x.a"));
+    CHECK(f.replication.staleDropped() == before + 1);
+    REQUIRE(f.replication.onUpdate(2, wire::TupleUpdate{20, remoteTuple(2, "x.a", "v", 1)}));
+    CHECK_FALSE(f.replication.onDeleted(3, wire::TupleDeleted{30, 2, "x.a", 9}));
+    CHECK(f.space.get(2, "x.a"));
+    CHECK(f.replication.staleDropped() == before + 2);
+  }
+
+  SECTION("an update of our own tuple is rejected") {
+    f.space.set("x.mine", "local");
+    f.take();
+    CHECK_FALSE(f.replication.onUpdate(
+        kSelf, wire::TupleUpdate{kIncarnation, remoteTuple(kSelf, "x.mine", "r", 9)}));
+    CHECK(f.space.get(kSelf, "x.mine")->data == "local");
+  }
+
+  SECTION("owner incarnations: newer forgets the old tuples, older is dropped") {
+    REQUIRE(f.replication.onUpdate(2, wire::TupleUpdate{20, remoteTuple(2, "x.a", "a", 5)}));
+    REQUIRE(f.replication.onUpdate(2, wire::TupleUpdate{20, remoteTuple(2, "x.b", "b", 5)}));
+    REQUIRE(f.replication.onUpdate(3, wire::TupleUpdate{30, remoteTuple(3, "x.a", "3", 5)}));
+
+    // PEIS 2 restarted: its seqnos start again at 1.
+    CHECK(f.replication.onUpdate(2, wire::TupleUpdate{21, remoteTuple(2, "x.a", "new", 1)}));
+    CHECK(f.space.get(2, "x.a")->data == "new");
+    CHECK_FALSE(f.space.get(2, "x.b"));         // forgotten with the old life
+    CHECK(f.space.get(3, "x.a")->data == "3");  // other owners untouched
+
+    const auto before = f.replication.staleDropped();
+    CHECK_FALSE(f.replication.onUpdate(2, wire::TupleUpdate{20, remoteTuple(2, "x.b", "old", 99)}));
+    CHECK_FALSE(f.space.get(2, "x.b"));
+    CHECK_FALSE(f.replication.onDeleted(2, wire::TupleDeleted{20, 2, "x.a", 99}));
+    CHECK(f.space.get(2, "x.a"));
+    CHECK(f.replication.staleDropped() == before + 2);
+  }
+
+  SECTION("a peer back with a new incarnation is re-subscribed with a fresh id") {
+    REQUIRE(f.replication.onUpdate(2, wire::TupleUpdate{20, remoteTuple(2, "x.a", "a", 5)}));
+    f.replication.onPeerUp(2, 22);
+    CHECK_FALSE(f.space.get(2, "x.a"));  // the old life's tuples are gone
+    outbox = f.take();
+    REQUIRE(outbox.size() == 1);
+    CHECK(outbox[0].destination == 2);
+    const auto* s = bodyAs<wire::Subscribe>(outbox[0]);
+    REQUIRE(s);
+    CHECK(s->subscription != anyIds[2]);
+    CHECK(s->subscription != anyIds[3]);
+    // Updates of the old incarnation that were still in flight are dropped.
+    CHECK_FALSE(f.replication.onUpdate(2, wire::TupleUpdate{20, remoteTuple(2, "x.a", "a", 6)}));
+    CHECK(f.replication.onUpdate(2, wire::TupleUpdate{22, remoteTuple(2, "x.a", "b", 1)}));
+
+    f.replication.renew();
+    for (const auto& out : f.take()) {
+      if (out.destination == 2)
+        CHECK(bodyAs<wire::Subscribe>(out)->subscription == s->subscription);
+    }
+  }
+
+  SECTION("a peer that went down is not subscribed to") {
+    f.replication.onPeerDown(3);
+    f.replication.renew();
+    outbox = f.take();
+    REQUIRE(outbox.size() == 1);
+    CHECK(outbox[0].destination == 2);
+    f.replication.subscribe(Pattern("y"));
+    outbox = f.take();
+    REQUIRE(outbox.size() == 1);
+    CHECK(outbox[0].destination == 2);
+  }
+
+  SECTION("unsubscribe sends Unsubscribe with each owner's id") {
+    CHECK(f.replication.unsubscribe(any));
+    outbox = f.take();
+    REQUIRE(outbox.size() == 2);
+    for (const auto& out : outbox) {
+      const auto* u = bodyAs<wire::Unsubscribe>(out);
+      REQUIRE(u);
+      CHECK(u->subscription == anyIds[out.destination]);
+    }
+    CHECK_FALSE(f.replication.unsubscribe(any));
+    CHECK(f.take().empty());
+    f.replication.renew();
+    CHECK(f.take().empty());
+    f.replication.onPeerUp(5, 50);
+    CHECK(f.take().empty());
+  }
+
+  SECTION("onRetarget follows an indirect callback's target") {
+    constexpr peis::CallbackId kIndirect = 77;
+    f.replication.onRetarget(kIndirect, TupleRef{2, "target.a"});
+    outbox = f.take();
+    REQUIRE(outbox.size() == 1);
+    CHECK(outbox[0].destination == 2);
+    const auto* first = bodyAs<wire::Subscribe>(outbox[0]);
+    REQUIRE(first);
+    CHECK(first->owner == PeisId{2});
+    CHECK(first->keyPattern == "target.a");
+    const auto firstId = first->subscription;
+
+    // Re-pointed to another owner: subscribe there, unsubscribe the old one.
+    f.replication.onRetarget(kIndirect, TupleRef{3, "target.b"});
+    outbox = f.take();
+    REQUIRE(outbox.size() == 2);
+    bool unsubscribedOld = false, subscribedNew = false;
+    for (const auto& out : outbox) {
+      if (const auto* u = bodyAs<wire::Unsubscribe>(out)) {
+        unsubscribedOld = out.destination == 2 && u->subscription == firstId;
+      } else if (const auto* s = bodyAs<wire::Subscribe>(out)) {
+        subscribedNew =
+            out.destination == 3 && s->owner == PeisId{3} && s->keyPattern == "target.b";
+      }
+    }
+    CHECK(unsubscribedOld);
+    CHECK(subscribedNew);
+
+    // Re-pointed at an own tuple: nothing remote to follow.
+    f.replication.onRetarget(kIndirect, TupleRef{kSelf, "local"});
+    outbox = f.take();
+    REQUIRE(outbox.size() == 1);
+    CHECK(outbox[0].destination == 3);
+    CHECK(bodyAs<wire::Unsubscribe>(outbox[0]));
+
+    f.replication.onRetarget(kIndirect, TupleRef{2, "target.c"});
+    f.take();
+    f.replication.onRetarget(kIndirect, std::nullopt);  // points nowhere
+    outbox = f.take();
+    REQUIRE(outbox.size() == 1);
+    CHECK(outbox[0].destination == 2);
+    CHECK(bodyAs<wire::Unsubscribe>(outbox[0]));
+
+    // A removed indirect callback ends its subscriptions, meta included.
+    f.replication.onRetarget(kIndirect, TupleRef{2, "target.d"});
+    f.replication.trackIndirectMeta(kIndirect, TupleRef{3, "meta.m"});
+    outbox = f.take();
+    REQUIRE(outbox.size() == 2);
+    f.replication.onIndirectRemoved(kIndirect);
+    outbox = f.take();
+    std::set<PeisId> unsubscribed;
+    for (const auto& out : outbox) {
+      if (bodyAs<wire::Unsubscribe>(out)) unsubscribed.insert(out.destination);
+    }
+    CHECK(unsubscribed == std::set<PeisId>{2, 3});
+  }
+}
