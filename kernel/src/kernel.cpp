@@ -308,8 +308,13 @@ struct Kernel::Impl {
       if (peer.hops > 0) ids.push_back(peer.id);
       if (peer.hops == 1) linked.push_back(peer.id);
     }
-    space.setKernelTuple(special::kPeers, joinIds(ids));
-    space.setKernelTuple(special::kLinks, joinIds(linked));
+    auto peersText = joinIds(ids), linksText = joinIds(linked);
+    if (auto t = space.get(id, special::kPeers); !t || t->data != peersText) {
+      space.setKernelTuple(special::kPeers, std::move(peersText));
+    }
+    if (auto t = space.get(id, special::kLinks); !t || t->data != linksText) {
+      space.setKernelTuple(special::kLinks, std::move(linksText));
+    }
   }
 
   void refreshSubscribersTuple() {  // mu held
@@ -362,6 +367,8 @@ struct Kernel::Impl {
         [&](auto&& body) {
           using T = std::decay_t<decltype(body)>;
           if constexpr (std::is_same_v<T, wire::WriteResult>) {
+            auto pending = pendingWrites.find(body.request);
+            if (pending == pendingWrites.end() || pending->second.owner != source) return;
             if (body.status == 0) {
               completeWrite(body.request, std::nullopt, body.seqno);
             } else {
@@ -508,6 +515,12 @@ struct Kernel::Impl {
     events.onPeerDown = [this](PeisId p) { onPeerDown(p); };
     events.repickId = [this] { return repickId(); };
     events.onWritable = [this] { flush(); };
+    events.onTopology = [this] {
+      std::lock_guard lock(mu);
+      snapshotPeers();
+      refreshMembershipTuples();
+      afterMutation();
+    };
     network = std::make_unique<net::Network>(io, config, id, incarnation, events);
     network->start();
     std::lock_guard lock(mu);

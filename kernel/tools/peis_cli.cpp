@@ -382,10 +382,12 @@ int commandLs(peis::Kernel& kernel, const Args& args) {
 }
 
 int commandNode(peis::Kernel& kernel, const Args&) {
-  std::cerr << "peis node: PEIS " << kernel.id() << " '" << kernel.name() << "' on port "
-            << kernel.port() << "\n";
+  // One write per line: the kernel thread logs to stderr at the same time,
+  // and scripts parse this line.
+  std::cerr << ("peis node: PEIS " + std::to_string(kernel.id()) + " '" + kernel.name() +
+                "' on port " + std::to_string(kernel.port()) + "\n");
   const auto reason = kernel.run();
-  std::cerr << "peis node: " << reason << "\n";
+  std::cerr << ("peis node: " + reason + "\n");
   return 0;
 }
 

@@ -7,6 +7,7 @@
 #include <netinet/in.h>
 
 #include <algorithm>
+#include <array>
 #include <boost/asio/connect.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/ip/udp.hpp>
@@ -30,11 +31,15 @@ using SteadyClock = std::chrono::steady_clock;
 namespace {
 
 constexpr int kMaxHops = 32;
+constexpr std::uint8_t kWithdrawn = 255;            // a route entry that is no longer valid
 constexpr std::uint32_t kBeaconMagic = 0x50454942;  // "PEIB"
-constexpr std::size_t kReadChunk = 64 * 1024;
+constexpr std::size_t kReadChunk = 32 * 1024;
 constexpr std::size_t kWriteChunk = 256 * 1024;
 constexpr std::chrono::milliseconds kAdvertDelay{5};
 constexpr std::chrono::milliseconds kRedialPeriod{1000};
+constexpr std::chrono::seconds kLinkGrace{2};  // a link's minimum life before pruning
+constexpr std::chrono::milliseconds kDialQuiet{15};
+constexpr std::chrono::milliseconds kDialMaxDelay{300};
 
 std::string endpointText(const tcp::endpoint& e) {
   return e.address().to_string() + ":" + std::to_string(e.port());
@@ -154,6 +159,8 @@ class Network::Impl {
         pingTimer_(io),
         advertTimer_(io),
         redialTimer_(io),
+        dialTimer_(io),
+        acceptRetry_(io),
         explicitLinks_(config_.connect.size()) {}
 
   void start();
@@ -203,6 +210,12 @@ class Network::Impl {
   void receiveBeacons();
   void onBeacon(const Beacon& beacon, const udp::endpoint& from);
   void evaluateDials();
+  // Evaluates dials once beacons have been quiet for a moment (bounded), so
+  // PEIS starting together do not link to every target they pass through.
+  void scheduleDials();
+  void pruneLinks();
+  std::vector<PeisId> overlayIds() const;
+  static bool overlayWants(const std::vector<PeisId>& ids, PeisId a, PeisId b);
   void pingLoop();
   void redialLoop();
   wire::Hello hello() const;
@@ -211,12 +224,15 @@ class Network::Impl {
   udp::socket udp_;
   udp::endpoint beaconFrom_;
   std::array<char, 512> beaconBuffer_{};
-  asio::steady_timer beaconTimer_, pingTimer_, advertTimer_, redialTimer_;
+  asio::steady_timer beaconTimer_, pingTimer_, advertTimer_, redialTimer_, dialTimer_, acceptRetry_;
+  bool dialsPending_ = false;
+  SteadyClock::time_point dialsFirstAsked_;
   bool advertScheduled_ = false;
   std::vector<std::shared_ptr<Link>> links_;
   std::vector<std::weak_ptr<Link>> explicitLinks_;
   std::map<PeisId, Route> routes_;
-  std::map<PeisId, std::vector<wire::RouteEntry>> adverts_;
+  // What each linked PEIS told us it can reach (applied as deltas).
+  std::map<PeisId, std::map<PeisId, wire::RouteEntry>> adverts_;
   std::map<PeisId, BeaconPeer> beaconPeers_;
   std::set<PeisId> dialing_;
 };
@@ -278,6 +294,9 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   bool established_ = false;
   wire::Hello peer_;
   SteadyClock::time_point lastHeard_;
+  SteadyClock::time_point lastSent_;
+  SteadyClock::time_point establishedAt_;
+  std::map<PeisId, wire::RouteEntry> told_;  // the routes this peer last heard from us
   int malformed_ = 0;
   bool closed_ = false;
   PeisId dialTarget_ = 0;  // the beacon peer this link was dialled for
@@ -286,12 +305,10 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   // Frames wait in chunks of about kWriteChunk bytes, so the backlog drains
   // (and coalescing ends) gradually while a slow reader catches up.
   void enqueue(std::string_view frame) {
-    if (chunks_.empty() || chunks_.back().size() >= kWriteChunk) {
-      chunks_.emplace_back();
-      chunks_.back().reserve(std::max(kWriteChunk, frame.size()));
-    }
+    if (chunks_.empty() || chunks_.back().size() >= kWriteChunk) chunks_.emplace_back();
     chunks_.back().append(frame);
     queued_ += frame.size();
+    lastSent_ = SteadyClock::now();
     ++net_.counters_.framesOut;
   }
 
@@ -318,20 +335,20 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
 
   void read() {
     if (closed_) return;
-    if (in_.size() - inPos_ + kReadChunk > in_.capacity() && inPos_ > 0) {
-      in_.erase(0, inPos_);
-      inPos_ = 0;
-    }
-    const auto used = in_.size();
-    in_.resize(used + kReadChunk);
+    if (!readBuffer_) readBuffer_ = std::make_unique<std::array<char, kReadChunk>>();
     socket_.async_read_some(
-        asio::buffer(in_.data() + used, kReadChunk),
-        [self = shared_from_this(), used](const boost::system::error_code& ec, std::size_t n) {
-          self->in_.resize(used + n);
+        asio::buffer(*readBuffer_),
+        [self = shared_from_this()](const boost::system::error_code& ec, std::size_t n) {
           if (ec) {
             return self->close(ec == asio::error::eof ? "closed by peer" : ec.message());
           }
           self->lastHeard_ = SteadyClock::now();
+          auto& in = self->in_;
+          if (self->inPos_ > 0 && self->inPos_ * 2 > in.size()) {
+            in.erase(0, self->inPos_);
+            self->inPos_ = 0;
+          }
+          in.append(self->readBuffer_->data(), n);
           self->parse();
           self->read();
         });
@@ -355,9 +372,11 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
     if (inPos_ == in_.size()) {
       in_.clear();
       inPos_ = 0;
+      if (in_.capacity() > (1u << 20)) in_.shrink_to_fit();  // after a huge frame
     }
   }
 
+  std::unique_ptr<std::array<char, kReadChunk>> readBuffer_;
   std::string in_;
   std::size_t inPos_ = 0;
   std::string out_;
@@ -439,6 +458,8 @@ void Network::Impl::stop() {
   pingTimer_.cancel();
   advertTimer_.cancel();
   redialTimer_.cancel();
+  dialTimer_.cancel();
+  acceptRetry_.cancel();
   auto links = links_;
   for (auto& link : links) link->close("shutting down");
 }
@@ -446,8 +467,17 @@ void Network::Impl::stop() {
 void Network::Impl::accept() {
   acceptor_.async_accept([this](const boost::system::error_code& ec, tcp::socket socket) {
     if (stopped_) return;
-    if (!ec) addLink(std::move(socket), false, -1);
-    accept();
+    if (!ec) {
+      addLink(std::move(socket), false, -1);
+      return accept();
+    }
+    // Out of descriptors or similar: say so once in a while and retry later
+    // rather than spinning on the error.
+    log::warn(self_, "cannot accept a link: " + ec.message());
+    acceptRetry_.expires_after(std::chrono::milliseconds(200));
+    acceptRetry_.async_wait([this](const boost::system::error_code& e) {
+      if (!e && !stopped_) accept();
+    });
   });
 }
 
@@ -525,7 +555,14 @@ void Network::Impl::onFrame(const std::shared_ptr<Link>& link, std::string_view 
     wire::encode(wire::LinkMessage{wire::Pong{ping->nonce}}, out);
     link->sendFrame(out);
   } else if (auto* routes = std::get_if<wire::Routes>(&message)) {
-    adverts_[link->peer_.id] = std::move(routes->entries);
+    auto& known = adverts_[link->peer_.id];
+    for (auto& entry : routes->entries) {
+      if (entry.hops == kWithdrawn) {
+        known.erase(entry.id);
+      } else {
+        known[entry.id] = std::move(entry);
+      }
+    }
     recompute();
   } else if (auto* taken = std::get_if<wire::IdTaken>(&message)) {
     if (taken->id == self_ && taken->incarnation == incarnation_) collision(0);
@@ -572,6 +609,7 @@ void Network::Impl::onHello(const std::shared_ptr<Link>& link, const wire::Hello
     existing->close("replaced by a new link");
   }
   link->established_ = true;
+  link->establishedAt_ = SteadyClock::now();
   link->peer_ = hello;
   dialing_.erase(hello.id);
   log::info(self_, "linked to PEIS " + std::to_string(hello.id) + " '" + hello.name + "' at " +
@@ -599,11 +637,15 @@ void Network::Impl::collision(std::uint64_t otherIncarnation) {
 void Network::Impl::onRouted(const std::shared_ptr<Link>& link, std::string_view frame,
                              wire::RoutedMessage&& message) {
   const auto& envelope = message.envelope;
-  // A linked PEIS always sends over its own link, so a frame claiming its id
-  // from another link is spoofed.
+  // A linked PEIS sends its own frames over its own link, so a frame claiming
+  // its id from another link is spoofed, unless that link's PEIS advertised
+  // a route to it: then it relays frames sent while routes were changing
+  // (e.g. the full sync of a subscription made before the direct link was up).
   const auto direct = linkTo(envelope.source);
+  const auto relay = adverts_.find(link->peer_.id);
+  const bool relayed = relay != adverts_.end() && relay->second.count(envelope.source) != 0;
   if (envelope.source == self_ || !routes_.count(envelope.source) ||
-      (direct && direct != link)) {
+      (direct && direct != link && !relayed)) {
     ++counters_.malformedFrames;
     log::warn(self_, "dropped a frame from " + link->remote_ + " with spoofed or unknown source " +
                          std::to_string(envelope.source));
@@ -695,7 +737,7 @@ void Network::Impl::recompute() {
     offer(peer.id, Route{1, peer.id, peer.incarnation, peer.name});
     auto advert = adverts_.find(peer.id);
     if (advert == adverts_.end()) continue;
-    for (const auto& entry : advert->second) {
+    for (const auto& [entryId, entry] : advert->second) {
       if (entry.id == self_) {
         if (entry.incarnation != incarnation_ && entry.hops == 0) {
           ++counters_.idCollisions;
@@ -712,6 +754,7 @@ void Network::Impl::recompute() {
   auto old = std::move(routes_);
   routes_ = std::move(next);
   scheduleAdvert();
+  if (events_.onTopology) events_.onTopology();
   for (const auto& [id, route] : old) {
     if (!routes_.count(id) && events_.onPeerDown) events_.onPeerDown(id);
   }
@@ -735,17 +778,29 @@ void Network::Impl::scheduleAdvert() {
   });
 }
 
+// Tells each linked PEIS what changed in the routes it should know (split
+// horizon: never a route back through itself). A new link gets everything.
 void Network::Impl::advertise() {
   for (const auto& link : links_) {
     if (!link->established_) continue;
-    wire::Routes routes;
+    std::map<PeisId, wire::RouteEntry> wanted;
     for (const auto& [id, route] : routes_) {
-      if (route.hops > 0 && route.nextHop == link->peer_.id) continue;  // split horizon
-      routes.entries.push_back(wire::RouteEntry{id, static_cast<std::uint8_t>(route.hops),
-                                                route.incarnation, route.name});
+      if (route.hops > 0 && route.nextHop == link->peer_.id) continue;
+      wanted[id] = wire::RouteEntry{id, static_cast<std::uint8_t>(route.hops), route.incarnation,
+                                    route.name};
     }
+    wire::Routes delta;
+    for (const auto& [id, entry] : wanted) {
+      auto told = link->told_.find(id);
+      if (told == link->told_.end() || !(told->second == entry)) delta.entries.push_back(entry);
+    }
+    for (const auto& [id, entry] : link->told_) {
+      if (!wanted.count(id)) delta.entries.push_back(wire::RouteEntry{id, kWithdrawn, 0, ""});
+    }
+    if (delta.entries.empty()) continue;
+    link->told_ = std::move(wanted);
     std::string out;
-    wire::encode(wire::LinkMessage{routes}, out);
+    wire::encode(wire::LinkMessage{delta}, out);
     link->sendFrame(out);
   }
 }
@@ -761,7 +816,7 @@ void Network::Impl::pingLoop() {
         link->close("silent for more than " + std::to_string(config_.deadAfter.count()) + " ms");
         continue;
       }
-      if (!link->established_) continue;
+      if (!link->established_ || now - link->lastSent_ < config_.pingPeriod) continue;
       std::string out;
       wire::encode(
           wire::LinkMessage{wire::Ping{static_cast<std::uint64_t>(now.time_since_epoch().count())}},
@@ -796,6 +851,7 @@ void Network::Impl::beaconLoop() {
                                                               : std::next(it);
   }
   evaluateDials();
+  pruneLinks();
   beaconTimer_.expires_after(config_.beaconPeriod);
   beaconTimer_.async_wait([this](const boost::system::error_code& ec) {
     if (!ec && !stopped_) beaconLoop();
@@ -840,29 +896,52 @@ void Network::Impl::onBeacon(const Beacon& beacon, const udp::endpoint& from) {
   it->second = BeaconPeer{from.address(), beacon.port, beacon.incarnation, SteadyClock::now()};
   if (isNew) {
     if (beacon.wantsAnswer) sendBeacon(from, false);
-    evaluateDials();
+    scheduleDials();
   }
 }
 
 // The overlay: in id order (wrapping), each PEIS wants links to the PEIS at
 // distances 1, 2, 4, 8, ... after it: a connected graph of O(log N) links
 // each. Of every wanted pair, only the lower id dials, so no link is doubled.
-void Network::Impl::evaluateDials() {
+std::vector<PeisId> Network::Impl::overlayIds() const {
   std::vector<PeisId> ids{self_};
   for (const auto& [id, peer] : beaconPeers_) ids.push_back(id);
   std::sort(ids.begin(), ids.end());
+  return ids;
+}
+
+bool Network::Impl::overlayWants(const std::vector<PeisId>& ids, PeisId a, PeisId b) {
   const auto n = ids.size();
-  auto wants = [&](std::size_t from, std::size_t to) {
-    for (std::size_t step = 1; step < n; step *= 2) {
-      if ((from + step) % n == to) return true;
-    }
-    return false;
-  };
-  const auto mine =
-      static_cast<std::size_t>(std::find(ids.begin(), ids.end(), self_) - ids.begin());
-  for (std::size_t other = mine + 1; other < n; ++other) {
-    const PeisId target = ids[other];
-    if (!wants(mine, other) && !wants(other, mine)) continue;
+  const auto ia =
+      static_cast<std::size_t>(std::lower_bound(ids.begin(), ids.end(), a) - ids.begin());
+  const auto ib =
+      static_cast<std::size_t>(std::lower_bound(ids.begin(), ids.end(), b) - ids.begin());
+  if (ia >= n || ib >= n || ids[ia] != a || ids[ib] != b) return false;
+  for (std::size_t step = 1; step < n; step *= 2) {
+    if ((ia + step) % n == ib || (ib + step) % n == ia) return true;
+  }
+  return false;
+}
+
+void Network::Impl::scheduleDials() {
+  const auto now = SteadyClock::now();
+  if (!dialsPending_) {
+    dialsPending_ = true;
+    dialsFirstAsked_ = now;
+  }
+  const auto due = std::min(now + kDialQuiet, dialsFirstAsked_ + kDialMaxDelay);
+  dialTimer_.expires_at(due);
+  dialTimer_.async_wait([this](const boost::system::error_code& ec) {
+    if (ec || stopped_) return;
+    dialsPending_ = false;
+    evaluateDials();
+  });
+}
+
+void Network::Impl::evaluateDials() {
+  const auto ids = overlayIds();
+  for (const PeisId target : ids) {
+    if (target <= self_ || !overlayWants(ids, self_, target)) continue;
     if (linkTo(target) || dialing_.count(target)) continue;
     const auto& peer = beaconPeers_[target];
     dialing_.insert(target);
@@ -876,6 +955,22 @@ void Network::Impl::evaluateDials() {
                             }
                             addLink(std::move(*socket), true, -1, target);
                           });
+  }
+}
+
+// While PEIS join, the overlay's wanted pairs shift and links pile up; the
+// lower id of a pair closes a discovered link the overlay no longer wants
+// once it has settled for a while.
+void Network::Impl::pruneLinks() {
+  const auto ids = overlayIds();
+  const auto now = SteadyClock::now();
+  auto links = links_;
+  for (const auto& link : links) {
+    if (!link->established_ || link->explicitIndex_ >= 0) continue;
+    const PeisId peer = link->peer_.id;
+    if (self_ > peer || !beaconPeers_.count(peer)) continue;
+    if (now - link->establishedAt_ < kLinkGrace) continue;
+    if (!overlayWants(ids, self_, peer)) link->close("not needed by the overlay");
   }
 }
 

@@ -74,6 +74,8 @@ class Network {
     std::function<void(const PeerInfo&)> onPeerUp;
     // A PEIS is no longer reachable.
     std::function<void(PeisId)> onPeerDown;
+    // Routes or links changed (hops, next hops, a link opened or closed).
+    std::function<void()> onTopology;
     // The links drained after congested() said true: send more.
     std::function<void()> onWritable;
     // Another PEIS that started earlier holds our id: pick a new one.
