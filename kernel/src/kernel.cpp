@@ -386,8 +386,9 @@ struct Kernel::Impl {
               replication.onUnsubscribe(source, body.subscription);
               refreshSubscribersTuple();
             } else if constexpr (std::is_same_v<T, wire::TupleUpdate>) {
-              if (replication.onUpdate(source, body) && body.tuple.ts_expire != kNoTime) {
-                noteExpiry(body.tuple);
+              const auto expiry = body.tuple.ts_expire;
+              if (replication.onUpdate(source, std::move(body)) && expiry != kNoTime) {
+                asio::post(io, [this, expiry] { scheduleExpiry(expiry); });
               }
             } else if constexpr (std::is_same_v<T, wire::TupleDeleted>) {
               replication.onDeleted(source, body);

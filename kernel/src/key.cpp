@@ -61,10 +61,23 @@ std::vector<std::string_view> splitKey(std::string_view key) {
 }
 
 std::optional<std::string> keyProblem(std::string_view key) {
-  const auto parts = splitKey(key);
-  if (auto problem = commonProblem(key, parts)) return problem;
-  for (std::size_t i = 0; i < parts.size(); ++i) {
-    if (auto problem = partProblem(parts[i], i)) return problem;
+  // The common case, a valid key, allocates nothing.
+  std::size_t parts = 1, partStart = 0;
+  bool valid = !key.empty() && key.size() <= kMaxKeyBytes;
+  for (std::size_t i = 0; valid && i < key.size(); ++i) {
+    if (key[i] == '.') {
+      valid = i > partStart;
+      partStart = i + 1;
+      ++parts;
+    } else {
+      valid = isKeyChar(key[i]);
+    }
+  }
+  if (valid && partStart < key.size() && parts <= kMaxKeyParts) return std::nullopt;
+  const auto split = splitKey(key);
+  if (auto problem = commonProblem(key, split)) return problem;
+  for (std::size_t i = 0; i < split.size(); ++i) {
+    if (auto problem = partProblem(split[i], i)) return problem;
   }
   return std::nullopt;
 }

@@ -154,13 +154,13 @@ bool Replication::checkIncarnation(PeisId owner, std::uint64_t incarnation) {
   return true;
 }
 
-bool Replication::onUpdate(PeisId source, const wire::TupleUpdate& update) {
+bool Replication::onUpdate(PeisId source, wire::TupleUpdate&& update) {
   if (update.tuple.owner != source) {
     ++staleDropped_;
     return false;
   }
   if (!checkIncarnation(source, update.ownerIncarnation)) return false;
-  return space_.accept(update.tuple);
+  return space_.accept(std::move(update.tuple));
 }
 
 bool Replication::onDeleted(PeisId source, const wire::TupleDeleted& deleted) {

@@ -51,7 +51,7 @@ class Replication {
   SubscriptionHandle subscribe(const Pattern& pattern);
   bool unsubscribe(SubscriptionHandle handle);
   // Accepts an owner's update / delete; false if stale or spoofed (counted).
-  bool onUpdate(PeisId source, const wire::TupleUpdate& update);
+  bool onUpdate(PeisId source, wire::TupleUpdate&& update);
   bool onDeleted(PeisId source, const wire::TupleDeleted& deleted);
   // Re-sends every subscription (lease renewal).
   void renew();

@@ -237,12 +237,12 @@ void TupleSpace::remove(std::map<TupleRef, TuplePtr>::iterator it, std::uint64_t
   queueEvent(EventKind::Deleted, std::make_shared<const Tuple>(std::move(last)));
 }
 
-bool TupleSpace::accept(const Tuple& tuple) {
+bool TupleSpace::accept(Tuple&& tuple) {
   if (tuple.owner == self_ || !isValidPeisId(tuple.owner) || keyProblem(tuple.key)) return false;
   checkData(tuple.data.size());
   auto it = tuples_.find(refOf(tuple));
   if (it != tuples_.end() && it->second->seqno >= tuple.seqno) return false;
-  store(tuple);
+  store(std::move(tuple));
   return true;
 }
 

@@ -71,7 +71,8 @@ class TupleSpace {
   // --- tuples of other owners, already stamped by them ---------------------
   // Stores `tuple` unless the cache holds the same or a newer seqno for it;
   // returns whether it was stored.
-  bool accept(const Tuple& tuple);
+  bool accept(const Tuple& tuple) { return accept(Tuple(tuple)); }
+  bool accept(Tuple&& tuple);
   // Removes a cached tuple deleted by its owner at `seqno`.
   bool acceptDelete(PeisId owner, std::string_view key, std::uint64_t seqno);
 

@@ -335,9 +335,10 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
 
   void read() {
     if (closed_) return;
-    if (!readBuffer_) readBuffer_ = std::make_unique<std::array<char, kReadChunk>>();
+    // Not value-initialised: only the bytes the socket writes get touched.
+    if (!readBuffer_) readBuffer_.reset(new char[kReadChunk]);
     socket_.async_read_some(
-        asio::buffer(*readBuffer_),
+        asio::buffer(readBuffer_.get(), kReadChunk),
         [self = shared_from_this()](const boost::system::error_code& ec, std::size_t n) {
           if (ec) {
             return self->close(ec == asio::error::eof ? "closed by peer" : ec.message());
@@ -348,7 +349,7 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
             in.erase(0, self->inPos_);
             self->inPos_ = 0;
           }
-          in.append(self->readBuffer_->data(), n);
+          in.append(self->readBuffer_.get(), n);
           self->parse();
           self->read();
         });
@@ -376,7 +377,7 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
     }
   }
 
-  std::unique_ptr<std::array<char, kReadChunk>> readBuffer_;
+  std::unique_ptr<char[]> readBuffer_;
   std::string in_;
   std::size_t inPos_ = 0;
   std::string out_;
