@@ -265,7 +265,16 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   // they reach a link, when the links are congested (see congested()).
   void sendUpdate(std::string frame) {
     if (closed_) return;
-    enqueue(frame);
+    if (frame.size() >= kWriteChunk / 8) {
+      // A big frame becomes a chunk of its own: no copy.
+      queued_ += frame.size();
+      lastSent_ = SteadyClock::now();
+      ++net_.counters_.framesOut;
+      chunks_.push_back(std::move(frame));
+      chunks_.emplace_back();  // later frames must not be appended to it
+    } else {
+      enqueue(frame);
+    }
     write();
   }
 
@@ -314,6 +323,7 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
 
   void write() {
     if (writing_ || closed_) return;
+    while (!chunks_.empty() && chunks_.front().empty()) chunks_.pop_front();
     if (chunks_.empty()) return;
     out_ = std::move(chunks_.front());
     chunks_.pop_front();
