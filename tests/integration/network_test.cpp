@@ -157,6 +157,36 @@ PeisId randomId() {
   return std::uniform_int_distribution<PeisId>(1000, peis::kMaxPeisId)(device);
 }
 
+// What a test's PEIS look like now, for the message of a failed wait; set
+// for the scope of a StateReport.
+std::function<std::string()>* currentReport = nullptr;
+
+class StateReport {
+ public:
+  explicit StateReport(std::function<std::string()> fn)
+      : fn_(std::move(fn)), previous_(currentReport) {
+    currentReport = &fn_;
+  }
+  StateReport(const StateReport&) = delete;
+  StateReport& operator=(const StateReport&) = delete;
+  ~StateReport() { currentReport = previous_; }
+
+ private:
+  std::function<std::string()> fn_;
+  std::function<std::string()>* previous_;
+};
+
+std::string reportState() { return currentReport ? (*currentReport)() : std::string(); }
+
+// REQUIRE_WAIT(condition[, deadline]): waits like waitFor; if the condition
+// never held, fails with the state the current StateReport describes then.
+#define REQUIRE_WAIT(...)                          \
+  do {                                             \
+    const bool held_ = waitFor(__VA_ARGS__);       \
+    INFO((held_ ? std::string() : reportState())); \
+    REQUIRE(held_);                                \
+  } while (false)
+
 // Records what a callback sees, for checks from the test thread.
 class Recorder {
  public:
@@ -198,32 +228,42 @@ TEST_CASE("peis nodes on one host discover each other with only an ecology name"
   for (auto& node : nodes) infos.push_back(awaitNode(*node));
 
   peis::Kernel observer(kernelOptions(ecology, "observer"));
-  INFO("observer sees: " << peersText(observer));
-  REQUIRE(waitFor(
+  StateReport report([&] { return "observer sees: " + peersText(observer); });
+  REQUIRE_WAIT(
       [&] {
         return std::all_of(infos.begin(), infos.end(),
                            [&](const NodeInfo& n) { return hasPeer(observer, n.id); });
       },
-      kDeadline));
+      kDeadline);
 
   observer.subscribe(peis::Pattern("greeting"));
   observer.subscribe(peis::Pattern("kernel.peers"));
   for (int i = 0; i < 3; ++i) {
     const auto id = infos[static_cast<std::size_t>(i)].id;
     INFO("node " << id);
-    REQUIRE(
-        waitFor([&] { return valueOf(observer, id, "greeting") == "hello-" + std::to_string(i); },
-                kDeadline));
+    REQUIRE_WAIT([&] { return valueOf(observer, id, "greeting") == "hello-" + std::to_string(i); },
+                 kDeadline);
     // The nodes see each other too, not only the observer.
-    REQUIRE(waitFor(
+    REQUIRE_WAIT(
         [&] {
           const auto list = valueOf(observer, id, "kernel.peers");
           return std::all_of(infos.begin(), infos.end(), [&](const NodeInfo& other) {
             return other.id == id || listContains(list, other.id);
           });
         },
-        kDeadline));
+        kDeadline);
   }
+  // Four PEIS make a full mesh (links at distances 1 and 2 in id order):
+  // every peer is one hop away, and kernel.links says so.
+  REQUIRE_WAIT(
+      [&] {
+        const auto links = valueOf(observer, observer.id(), "kernel.links");
+        return std::all_of(infos.begin(), infos.end(), [&](const NodeInfo& n) {
+          auto peer = peerOf(observer, n.id);
+          return peer && peer->hops == 1 && listContains(links, n.id);
+        });
+      },
+      kDeadline);
   for (auto& node : nodes) {
     INFO(node->describe());
     CHECK(node->running());
@@ -246,16 +286,16 @@ TEST_CASE("a tuple crosses a line of four links, and a killed middle PEIS cuts i
   const auto bInfo = awaitNode(*b);
   peis::Kernel a(kernelOptions(ecology, "a", false, {localhost(bInfo.port)}));
   peis::Kernel e(kernelOptions(ecology, "e", false, {localhost(dInfo.port)}));
+  StateReport report([&] { return "A sees: " + peersText(a) + "\nE sees: " + peersText(e); });
 
   {
-    INFO("A sees: " << peersText(a) << "\nE sees: " << peersText(e));
-    REQUIRE(waitFor(
+    REQUIRE_WAIT(
         [&] {
           auto toE = peerOf(a, e.id());
           auto toA = peerOf(e, a.id());
           return toE && toE->hops == 4 && toA && toA->hops == 4;
         },
-        kDeadline));
+        kDeadline);
     auto toD = peerOf(a, dInfo.id);
     REQUIRE(toD);
     CHECK(toD->hops == 3);
@@ -264,7 +304,7 @@ TEST_CASE("a tuple crosses a line of four links, and a killed middle PEIS cuts i
 
   e.subscribe(peis::Pattern::exact(a.id(), "message"));
   a.set("message", "across four links");
-  REQUIRE(waitFor([&] { return valueOf(e, a.id(), "message") == "across four links"; }, kDeadline));
+  REQUIRE_WAIT([&] { return valueOf(e, a.id(), "message") == "across four links"; }, kDeadline);
   CHECK(e.get(a.id(), "message")->creator == a.id());
 
   const auto written = e.set(a.id(), "reply", "from the far end");
@@ -277,12 +317,11 @@ TEST_CASE("a tuple crosses a line of four links, and a killed middle PEIS cuts i
     INFO(c->describe());
     REQUIRE(c->wait(kDeadline) == -SIGKILL);
   }
-  INFO("A sees: " << peersText(a));
-  REQUIRE(waitFor([&] { return !hasPeer(a, dInfo.id) && !hasPeer(a, e.id()); }, 10s));
+  REQUIRE_WAIT([&] { return !hasPeer(a, dInfo.id) && !hasPeer(a, e.id()); }, 10s);
   CHECK(!hasPeer(a, cInfo.id));
   CHECK(hasPeer(a, bInfo.id));
   CHECK(hasPeer(e, dInfo.id));
-  REQUIRE(waitFor([&] { return !hasPeer(e, a.id()); }, 10s));
+  REQUIRE_WAIT([&] { return !hasPeer(e, a.id()); }, 10s);
   // A write across the cut fails instead of hanging.
   CHECK_THROWS_AS(e.set(a.id(), "reply", "lost"), peis::Error);
 }
@@ -300,16 +339,15 @@ TEST_CASE("a frozen PEIS is dropped after the liveness time and rejoins when it 
   auto options = kernelOptions(ecology, "near", false, {localhost(middleInfo.port)});
   options.liveness = 1000ms;
   peis::Kernel near(options);
-  INFO("near sees: " << peersText(near));
-  REQUIRE(waitFor([&] { return hasPeer(near, farInfo.id) && hasPeer(near, middleInfo.id); },
-                  kDeadline));
+  StateReport report([&] { return "near sees: " + peersText(near); });
+  REQUIRE_WAIT([&] { return hasPeer(near, farInfo.id) && hasPeer(near, middleInfo.id); },
+               kDeadline);
 
   middle->kill(SIGSTOP);
-  REQUIRE(
-      waitFor([&] { return !hasPeer(near, middleInfo.id) && !hasPeer(near, farInfo.id); }, 10s));
+  REQUIRE_WAIT([&] { return !hasPeer(near, middleInfo.id) && !hasPeer(near, farInfo.id); }, 10s);
   middle->kill(SIGCONT);
-  REQUIRE(waitFor([&] { return hasPeer(near, middleInfo.id) && hasPeer(near, farInfo.id); },
-                  kDeadline));
+  REQUIRE_WAIT([&] { return hasPeer(near, middleInfo.id) && hasPeer(near, farInfo.id); },
+               kDeadline);
 }
 
 // (c) A subscription to any owner reaches PEIS that join after it.
@@ -326,18 +364,19 @@ TEST_CASE("a subscription to any owner gets the tuples of PEIS that join later",
   auto second = startNode(ecology, {"--peis-set-tuple", "sensor.value=22"});
   const auto firstInfo = awaitNode(*first);
   const auto secondInfo = awaitNode(*second);
-  INFO("seen:\n" << seen.text() << "subscriber sees: " << peersText(subscriber));
-  REQUIRE(waitFor(
+  StateReport report(
+      [&] { return "seen:\n" + seen.text() + "subscriber sees: " + peersText(subscriber); });
+  REQUIRE_WAIT(
       [&] {
         return valueOf(subscriber, firstInfo.id, "sensor.value") == "11" &&
                valueOf(subscriber, secondInfo.id, "sensor.value") == "22";
       },
-      kDeadline));
+      kDeadline);
   CHECK(subscriber.find(peis::Pattern("sensor.value")).size() == 2);
-  REQUIRE(waitFor([&] {
+  REQUIRE_WAIT([&] {
     return seen.contains(std::to_string(firstInfo.id) + "=11") &&
            seen.contains(std::to_string(secondInfo.id) + "=22");
-  }));
+  });
 }
 
 // (d) Three writers race on one key of one owner; both subscribers see the
@@ -373,7 +412,7 @@ TEST_CASE("concurrent remote writers: subscribers see increasing seqnos and the 
     subscribers.back()->subscribe(peis::Pattern::exact(owner.id(), "shared"));
   }
   // Everyone is linked, and the owner holds both subscriptions.
-  REQUIRE(waitFor(
+  REQUIRE_WAIT(
       [&] {
         for (auto& k : writers)
           if (!hasPeer(*k, owner.id())) return false;
@@ -382,7 +421,7 @@ TEST_CASE("concurrent remote writers: subscribers see increasing seqnos and the 
           if (!listContains(subs, k->id())) return false;
         return true;
       },
-      kDeadline));
+      kDeadline);
 
   std::atomic<int> failures{0};
   std::mutex errorsMu;
@@ -423,19 +462,23 @@ TEST_CASE("concurrent remote writers: subscribers see increasing seqnos and the 
   CHECK(final->seqno == all.back());
   for (std::size_t s = 0; s < subscribers.size(); ++s) {
     INFO("subscriber " << s);
-    REQUIRE(waitFor(
+    REQUIRE_WAIT(
         [&] {
           std::lock_guard lock(seen[s]->mu);
           return !seen[s]->updates.empty() &&
                  seen[s]->updates.back() == std::pair{final->seqno, final->data};
         },
-        kDeadline));
+        kDeadline);
     CHECK(valueOf(*subscribers[s], owner.id(), "shared") == final->data);
     std::lock_guard lock(seen[s]->mu);
     const auto& updates = seen[s]->updates;
-    for (std::size_t i = 1; i < updates.size(); ++i) {
-      INFO("update " << i << ": seqno " << updates[i].first << " after " << updates[i - 1].first);
-      REQUIRE(updates[i].first > updates[i - 1].first);
+    const auto notIncreasing =
+        std::adjacent_find(updates.begin(), updates.end(),
+                           [](const auto& a, const auto& b) { return b.first <= a.first; });
+    INFO(updates.size() << " updates seen");
+    if (notIncreasing != updates.end()) {
+      FAIL_CHECK("seqno " << std::next(notIncreasing)->first << " came after "
+                          << notIncreasing->first);
     }
   }
 }
@@ -453,9 +496,9 @@ TEST_CASE("an owner restarted after kill -9 replaces its old incarnation's tuple
                                    "--peis-set-tuple", "only-first=yes"});
   awaitNode(*owner);
   subscriber.subscribe(peis::Pattern::exact(kOwner, "only-first"));
-  INFO("subscriber sees: " << peersText(subscriber));
-  REQUIRE(waitFor([&] { return valueOf(subscriber, kOwner, "x") == "1"; }, kDeadline));
-  REQUIRE(waitFor([&] { return valueOf(subscriber, kOwner, "only-first") == "yes"; }, kDeadline));
+  StateReport report([&] { return "subscriber sees: " + peersText(subscriber); });
+  REQUIRE_WAIT([&] { return valueOf(subscriber, kOwner, "x") == "1"; }, kDeadline);
+  REQUIRE_WAIT([&] { return valueOf(subscriber, kOwner, "only-first") == "yes"; }, kDeadline);
   const auto firstLife = peerOf(subscriber, kOwner);
   REQUIRE(firstLife);
 
@@ -464,7 +507,7 @@ TEST_CASE("an owner restarted after kill -9 replaces its old incarnation's tuple
   owner = startNode(ecology, {"--peis-id", "4242", "--peis-set-tuple", "x=2"});
   awaitNode(*owner);
 
-  REQUIRE(waitFor([&] { return valueOf(subscriber, kOwner, "x") == "2"; }, kDeadline));
+  REQUIRE_WAIT([&] { return valueOf(subscriber, kOwner, "x") == "2"; }, kDeadline);
   const auto secondLife = peerOf(subscriber, kOwner);
   REQUIRE(secondLife);
   CHECK(secondLife->incarnation > firstLife->incarnation);
@@ -487,12 +530,12 @@ TEST_CASE("a link dropped by a dead relay heals and the subscriber converges",
 
   b.subscribe(peis::Pattern::exact(a.id(), "v"));
   a.set("v", "1");
-  INFO("A sees: " << peersText(a) << "\nB sees: " << peersText(b));
-  REQUIRE(waitFor([&] { return valueOf(b, a.id(), "v") == "1"; }, kDeadline));
+  StateReport report([&] { return "A sees: " + peersText(a) + "\nB sees: " + peersText(b); });
+  REQUIRE_WAIT([&] { return valueOf(b, a.id(), "v") == "1"; }, kDeadline);
 
   relay->kill(SIGKILL);
   REQUIRE(relay->wait(kDeadline) == -SIGKILL);
-  REQUIRE(waitFor([&] { return !hasPeer(a, b.id()) && !hasPeer(b, a.id()); }, 10s));
+  REQUIRE_WAIT([&] { return !hasPeer(a, b.id()) && !hasPeer(b, a.id()); }, 10s);
   a.set("v", "2");
   a.set("v", "3");
   CHECK(valueOf(b, a.id(), "v") != "3");
@@ -503,8 +546,8 @@ TEST_CASE("a link dropped by a dead relay heals and the subscriber converges",
   relay = startNode(ecology, flags);
   const auto again = awaitNode(*relay);
   CHECK(again.port == relayInfo.port);
-  REQUIRE(waitFor([&] { return hasPeer(a, b.id()) && hasPeer(b, a.id()); }, kDeadline));
-  REQUIRE(waitFor([&] { return valueOf(b, a.id(), "v") == "3"; }, kDeadline));
+  REQUIRE_WAIT([&] { return hasPeer(a, b.id()) && hasPeer(b, a.id()); }, kDeadline);
+  REQUIRE_WAIT([&] { return valueOf(b, a.id(), "v") == "3"; }, kDeadline);
   CHECK(b.get(a.id(), "v")->seqno == a.get("v")->seqno);
 }
 
@@ -524,15 +567,15 @@ TEST_CASE("PEIS of another ecology never see or get this ecology's tuples", "[in
 
   // X is a working ecology: its PEIS see each other and get each other's tuples.
   x1.subscribe(peis::Pattern("secret"));
-  INFO("X1 sees: " << peersText(x1) << "\nY sees: " << peersText(yk));
-  REQUIRE(waitFor([&] { return valueOf(x1, x2Info.id, "secret") == "x2"; }, kDeadline));
+  StateReport report([&] { return "X1 sees: " + peersText(x1) + "\nY sees: " + peersText(yk); });
+  REQUIRE_WAIT([&] { return valueOf(x1, x2Info.id, "secret") == "x2"; }, kDeadline);
   // The direct link was refused at the handshake, by one end or both.
-  REQUIRE(waitFor(
+  REQUIRE_WAIT(
       [&] {
         return x1.networkStats().foreignEcologyRejected + yk.networkStats().foreignEcologyRejected >
                0;
       },
-      kDeadline));
+      kDeadline);
 
   CHECK(!hasPeer(yk, x1.id()));
   CHECK(!hasPeer(yk, x2Info.id));
@@ -595,10 +638,10 @@ TEST_CASE("the peis command-line tool: set, get, watch, tuples, ls, --help", "[i
                                     "--peis-id", std::to_string(watcherId)}));
     // Write once the watcher's subscription has reached the owner.
     {
-      INFO(watch.describe());
-      REQUIRE(waitFor(
+      StateReport report([&] { return watch.describe(); });
+      REQUIRE_WAIT(
           [&] { return listContains(valueOf(owner, owner.id(), "kernel.subscribers"), watcherId); },
-          kDeadline));
+          kDeadline);
     }
     owner.set("counter", "1");
     owner.set("counter", "2");
@@ -611,7 +654,7 @@ TEST_CASE("the peis command-line tool: set, get, watch, tuples, ls, --help", "[i
   SECTION("ls --json lists the PEIS") {
     auto node = startNode(ecology, {"--peis-name", "cli-node"});
     const auto nodeInfo = awaitNode(*node);
-    REQUIRE(waitFor([&] { return hasPeer(owner, nodeInfo.id); }, kDeadline));
+    REQUIRE_WAIT([&] { return hasPeer(owner, nodeInfo.id); }, kDeadline);
     auto ls = runCli(ecology, {"ls", "--json", "--wait", "15"});
     INFO(describe(ls));
     REQUIRE(ls.status == 0);
@@ -663,11 +706,11 @@ TEST_CASE("meta tuples across PEIS: a configurator re-points an input at run tim
     INFO(describe(point));
     REQUIRE(point.status == 0);
   }
-  INFO("seen:\n" << seen.text());
-  REQUIRE(waitFor([&] { return seen.contains(entry(track, "1,1")); }, kDeadline));
+  StateReport report([&] { return "seen:\n" + seen.text(); });
+  REQUIRE_WAIT([&] { return seen.contains(entry(track, "1,1")); }, kDeadline);
   CHECK(vac.resolveMeta(vac.id(), "mi-position") == peis::TupleRef{track.id(), "position"});
   track.set("position", "1,2");
-  REQUIRE(waitFor([&] { return seen.contains(entry(track, "1,2")); }, kDeadline));
+  REQUIRE_WAIT([&] { return seen.contains(entry(track, "1,2")); }, kDeadline);
 
   // Re-point by name this time.
   auto repoint = runCli(ecology, {"meta", "vac.mi-position", "track2.position"});
@@ -675,11 +718,11 @@ TEST_CASE("meta tuples across PEIS: a configurator re-points an input at run tim
     INFO(describe(repoint));
     REQUIRE(repoint.status == 0);
   }
-  REQUIRE(waitFor([&] { return seen.contains(entry(track2, "9,9")); }, kDeadline));
+  REQUIRE_WAIT([&] { return seen.contains(entry(track2, "9,9")); }, kDeadline);
   CHECK(vac.resolveMeta(vac.id(), "mi-position") == peis::TupleRef{track2.id(), "position"});
   track.set("position", "1,3");  // no longer the input
   track2.set("position", "9,8");
-  REQUIRE(waitFor([&] { return seen.contains(entry(track2, "9,8")); }, kDeadline));
+  REQUIRE_WAIT([&] { return seen.contains(entry(track2, "9,8")); }, kDeadline);
   CHECK(!seen.contains(entry(track, "1,3")));
   CHECK(vac.getIndirect(vac.id(), "mi-position")->data == "9,8");
 }
@@ -712,36 +755,34 @@ TEST_CASE("an id collision makes the later PEIS re-pick its id", "[integration][
 
   auto first = startNode(ecology, {"--peis-id", sharedText, "--peis-name", "first"});
   awaitNode(*first);
-  REQUIRE(waitFor([&] { return valueOf(observer, shared, "kernel.id") == sharedText; }, kDeadline));
+  REQUIRE_WAIT([&] { return valueOf(observer, shared, "kernel.id") == sharedText; }, kDeadline);
 
   auto second = startNode(ecology, {"--peis-id", sharedText, "--peis-name", "second"});
+  StateReport report([&] {
+    return "observer sees: " + peersText(observer) + "\n" + first->describe() + "\n" +
+           second->describe();
+  });
   static const std::regex repicked(R"(re-picked id (\d+))");
   std::smatch match;
   std::string log;
-  {
-    INFO(second->describe());
-    REQUIRE(waitFor(
-        [&] {
-          log = second->err();
-          return std::regex_search(log, match, repicked);
-        },
-        kDeadline));
-  }
+  REQUIRE_WAIT(
+      [&] {
+        log = second->err();
+        return std::regex_search(log, match, repicked);
+      },
+      kDeadline);
   const auto newId = static_cast<PeisId>(std::stol(match[1]));
   CHECK(newId != shared);
 
-  INFO("observer sees: " << peersText(observer) << "\n"
-                         << first->describe() << "\n"
-                         << second->describe());
-  REQUIRE(waitFor(
+  REQUIRE_WAIT(
       [&] {
         auto a = peerOf(observer, shared);
         auto b = peerOf(observer, newId);
         return a && b && a->name == "first" && b->name == "second";
       },
-      kDeadline));
-  REQUIRE(waitFor([&] { return valueOf(observer, newId, "kernel.id") == std::to_string(newId); },
-                  kDeadline));
+      kDeadline);
+  REQUIRE_WAIT([&] { return valueOf(observer, newId, "kernel.id") == std::to_string(newId); },
+               kDeadline);
   CHECK(valueOf(observer, shared, "kernel.id") == sharedText);
   CHECK(first->err().find("re-picked") == std::string::npos);
   CHECK(first->running());

@@ -35,10 +35,13 @@ constexpr std::uint8_t kWithdrawn = 255;            // a route entry that is no 
 constexpr std::uint32_t kBeaconMagic = 0x50454942;  // "PEIB"
 constexpr std::size_t kReadChunk = 32 * 1024;
 constexpr std::size_t kWriteChunk = 256 * 1024;
-constexpr std::chrono::milliseconds kAdvertDelay{5};
+constexpr std::chrono::milliseconds kAdvertDelay{20};
 constexpr std::chrono::milliseconds kRedialPeriod{1000};
 constexpr std::chrono::seconds kLinkGrace{2};  // a link's minimum life before pruning
 constexpr std::chrono::milliseconds kDialQuiet{15};
+constexpr std::chrono::milliseconds kRecomputeDelay{10};
+constexpr std::chrono::seconds kHoldFor{3};  // how long a frame waits for its source's route
+constexpr std::size_t kMaxHeldFrames = 1024;
 constexpr std::chrono::milliseconds kDialMaxDelay{300};
 
 std::string endpointText(const tcp::endpoint& e) {
@@ -199,9 +202,18 @@ class Network::Impl {
   void onHello(const std::shared_ptr<Link>& link, const wire::Hello& hello);
   void onRouted(const std::shared_ptr<Link>& link, std::string_view frame,
                 wire::RoutedMessage&& message);
+  void deliverOrForward(std::string_view frame, wire::RoutedMessage&& message);
+  void retryHeld();
+  struct Held {
+    std::string frame;
+    wire::RoutedMessage message;
+    SteadyClock::time_point arrived;
+  };
+  std::deque<Held> held_;
   void collision(std::uint64_t otherIncarnation);
   void recompute();
   void scheduleAdvert();
+  void scheduleRecompute();
   void advertise();
   std::shared_ptr<Link> linkTo(PeisId peer) const;
   bool forward(PeisId destination, std::string frame);
@@ -226,6 +238,9 @@ class Network::Impl {
   std::array<char, 512> beaconBuffer_{};
   asio::steady_timer beaconTimer_, pingTimer_, advertTimer_, redialTimer_, dialTimer_, acceptRetry_;
   bool dialsPending_ = false;
+  bool recomputeScheduled_ = false;
+  asio::steady_timer recomputeTimer_{io_};
+  SteadyClock::time_point membershipChanged_;
   SteadyClock::time_point dialsFirstAsked_;
   bool advertScheduled_ = false;
   std::vector<std::shared_ptr<Link>> links_;
@@ -470,6 +485,7 @@ void Network::Impl::stop() {
   advertTimer_.cancel();
   redialTimer_.cancel();
   dialTimer_.cancel();
+  recomputeTimer_.cancel();
   acceptRetry_.cancel();
   auto links = links_;
   for (auto& link : links) link->close("shutting down");
@@ -574,7 +590,7 @@ void Network::Impl::onFrame(const std::shared_ptr<Link>& link, std::string_view 
         known[entry.id] = std::move(entry);
       }
     }
-    recompute();
+    scheduleRecompute();  // adverts arrive in bursts: recompute once per burst
   } else if (auto* taken = std::get_if<wire::IdTaken>(&message)) {
     if (taken->id == self_ && taken->incarnation == incarnation_) collision(0);
   }
@@ -648,6 +664,12 @@ void Network::Impl::collision(std::uint64_t otherIncarnation) {
 void Network::Impl::onRouted(const std::shared_ptr<Link>& link, std::string_view frame,
                              wire::RoutedMessage&& message) {
   const auto& envelope = message.envelope;
+  if (envelope.source == self_) {  // our own frame came back: a transient loop
+    ++counters_.unroutable;
+    return;
+  }
+  // Its route may sit in an advert whose recompute is still pending.
+  if (!routes_.count(envelope.source) && recomputeScheduled_) recompute();
   // A linked PEIS sends its own frames over its own link, so a frame claiming
   // its id from another link is spoofed, unless that link's PEIS advertised
   // a route to it: then it relays frames sent while routes were changing
@@ -655,10 +677,9 @@ void Network::Impl::onRouted(const std::shared_ptr<Link>& link, std::string_view
   const auto direct = linkTo(envelope.source);
   const auto relay = adverts_.find(link->peer_.id);
   const bool relayed = relay != adverts_.end() && relay->second.count(envelope.source) != 0;
-  if (envelope.source == self_ || !routes_.count(envelope.source) ||
-      (direct && direct != link && !relayed)) {
+  if (direct && direct != link && !relayed) {
     ++counters_.malformedFrames;
-    log::warn(self_, "dropped a frame from " + link->remote_ + " with spoofed or unknown source " +
+    log::warn(self_, "dropped a frame from " + link->remote_ + " with spoofed source " +
                          std::to_string(envelope.source));
     if (++link->malformed_ >= config_.maxMalformedFrames) {
       ++counters_.garbagePeersDisconnected;
@@ -666,6 +687,21 @@ void Network::Impl::onRouted(const std::shared_ptr<Link>& link, std::string_view
     }
     return;
   }
+  if (!routes_.count(envelope.source)) {
+    // A PEIS we have no route to yet: the adverts naming it travel one hop
+    // per advert delay, its first messages can be faster. Hold them briefly.
+    if (held_.size() >= kMaxHeldFrames) {
+      ++counters_.unroutable;
+      return;
+    }
+    held_.push_back(Held{std::string(frame), std::move(message), SteadyClock::now()});
+    return;
+  }
+  deliverOrForward(frame, std::move(message));
+}
+
+void Network::Impl::deliverOrForward(std::string_view frame, wire::RoutedMessage&& message) {
+  const auto& envelope = message.envelope;
   if (envelope.destination == self_) {
     if (events_.onMessage) events_.onMessage(std::move(message));
     return;
@@ -683,6 +719,26 @@ void Network::Impl::onRouted(const std::shared_ptr<Link>& link, std::string_view
   --routedEnvelope.ttl;
   wire::reEnvelope(copy, routedEnvelope);
   forward(envelope.destination, std::move(copy));
+}
+
+// Frames held for an unknown source: process those whose source is now
+// routable, drop those older than kHoldFor (counted as unroutable).
+void Network::Impl::retryHeld() {
+  if (held_.empty()) return;
+  const auto now = SteadyClock::now();
+  std::deque<Held> keep;
+  auto held = std::move(held_);
+  held_.clear();
+  for (auto& h : held) {
+    if (routes_.count(h.message.envelope.source)) {
+      deliverOrForward(h.frame, std::move(h.message));
+    } else if (now - h.arrived > kHoldFor) {
+      ++counters_.unroutable;
+    } else {
+      keep.push_back(std::move(h));
+    }
+  }
+  for (auto& h : keep) held_.push_back(std::move(h));
 }
 
 std::shared_ptr<Network::Impl::Link> Network::Impl::linkTo(PeisId peer) const {
@@ -761,11 +817,12 @@ void Network::Impl::recompute() {
       offer(entry.id, Route{entry.hops + 1, peer.id, entry.incarnation, entry.name});
     }
   }
-  if (next == routes_) return;
+  if (next == routes_) return retryHeld();
   auto old = std::move(routes_);
   routes_ = std::move(next);
   scheduleAdvert();
   if (events_.onTopology) events_.onTopology();
+  retryHeld();
   for (const auto& [id, route] : old) {
     if (!routes_.count(id) && events_.onPeerDown) events_.onPeerDown(id);
   }
@@ -777,6 +834,16 @@ void Network::Impl::recompute() {
       events_.onPeerUp(PeerInfo{id, route.name, route.incarnation, route.hops, route.nextHop});
     }
   }
+}
+
+void Network::Impl::scheduleRecompute() {
+  if (recomputeScheduled_ || stopped_) return;
+  recomputeScheduled_ = true;
+  recomputeTimer_.expires_after(kRecomputeDelay);
+  recomputeTimer_.async_wait([this](const boost::system::error_code& ec) {
+    recomputeScheduled_ = false;
+    if (!ec && !stopped_) recompute();
+  });
 }
 
 void Network::Impl::scheduleAdvert() {
@@ -791,25 +858,48 @@ void Network::Impl::scheduleAdvert() {
 
 // Tells each linked PEIS what changed in the routes it should know (split
 // horizon: never a route back through itself). A new link gets everything.
+// One merge pass over two id-ordered maps per link: no allocation unless
+// something changed.
 void Network::Impl::advertise() {
   for (const auto& link : links_) {
     if (!link->established_) continue;
-    std::map<PeisId, wire::RouteEntry> wanted;
-    for (const auto& [id, route] : routes_) {
-      if (route.hops > 0 && route.nextHop == link->peer_.id) continue;
-      wanted[id] = wire::RouteEntry{id, static_cast<std::uint8_t>(route.hops), route.incarnation,
-                                    route.name};
-    }
+    const PeisId peer = link->peer_.id;
+    auto& told = link->told_;
     wire::Routes delta;
-    for (const auto& [id, entry] : wanted) {
-      auto told = link->told_.find(id);
-      if (told == link->told_.end() || !(told->second == entry)) delta.entries.push_back(entry);
-    }
-    for (const auto& [id, entry] : link->told_) {
-      if (!wanted.count(id)) delta.entries.push_back(wire::RouteEntry{id, kWithdrawn, 0, ""});
+    auto r = routes_.begin();
+    auto t = told.begin();
+    while (r != routes_.end() || t != told.end()) {
+      const bool routeFirst = t == told.end() || (r != routes_.end() && r->first < t->first);
+      const bool toldFirst = r == routes_.end() || (t != told.end() && t->first < r->first);
+      if (routeFirst) {
+        const auto& [id, route] = *r++;
+        if (route.hops > 0 && route.nextHop == peer) continue;  // split horizon
+        wire::RouteEntry entry{id, static_cast<std::uint8_t>(route.hops), route.incarnation,
+                               route.name};
+        told.emplace_hint(t, id, entry);
+        delta.entries.push_back(std::move(entry));
+      } else if (toldFirst) {
+        delta.entries.push_back(wire::RouteEntry{t->first, kWithdrawn, 0, ""});
+        t = told.erase(t);
+      } else {
+        const auto& route = r->second;
+        if (route.hops > 0 && route.nextHop == peer) {
+          delta.entries.push_back(wire::RouteEntry{t->first, kWithdrawn, 0, ""});
+          t = told.erase(t);
+        } else {
+          auto& entry = t->second;
+          if (entry.hops != route.hops || entry.incarnation != route.incarnation ||
+              entry.name != route.name) {
+            entry = wire::RouteEntry{r->first, static_cast<std::uint8_t>(route.hops),
+                                     route.incarnation, route.name};
+            delta.entries.push_back(entry);
+          }
+          ++t;
+        }
+        ++r;
+      }
     }
     if (delta.entries.empty()) continue;
-    link->told_ = std::move(wanted);
     std::string out;
     wire::encode(wire::LinkMessage{delta}, out);
     link->sendFrame(out);
@@ -820,6 +910,7 @@ void Network::Impl::pingLoop() {
   pingTimer_.expires_after(config_.pingPeriod);
   pingTimer_.async_wait([this](const boost::system::error_code& ec) {
     if (ec || stopped_) return;
+    retryHeld();  // ages out frames whose source never became routable
     const auto now = SteadyClock::now();
     auto links = links_;
     for (auto& link : links) {
@@ -857,9 +948,16 @@ void Network::Impl::beaconLoop() {
   }
   // Forget beacon peers that went quiet.
   const auto now = SteadyClock::now();
+  // A PEIS still reachable by route is alive even if its beacons are late
+  // (a loaded host): forgetting it would reshape the overlay for nothing.
   for (auto it = beaconPeers_.begin(); it != beaconPeers_.end();) {
-    it = now - it->second.lastSeen > config_.beaconPeriod * 4 ? beaconPeers_.erase(it)
-                                                              : std::next(it);
+    const bool quiet = now - it->second.lastSeen > config_.beaconPeriod * 4;
+    if (quiet && !routes_.count(it->first)) {
+      it = beaconPeers_.erase(it);
+      membershipChanged_ = now;
+    } else {
+      ++it;
+    }
   }
   evaluateDials();
   pruneLinks();
@@ -904,6 +1002,7 @@ void Network::Impl::onBeacon(const Beacon& beacon, const udp::endpoint& from) {
   }
   auto [it, isNew] = beaconPeers_.try_emplace(beacon.id);
   isNew = isNew || it->second.incarnation != beacon.incarnation;
+  if (isNew) membershipChanged_ = SteadyClock::now();
   it->second = BeaconPeer{from.address(), beacon.port, beacon.incarnation, SteadyClock::now()};
   if (isNew) {
     if (beacon.wantsAnswer) sendBeacon(from, false);
@@ -973,15 +1072,22 @@ void Network::Impl::evaluateDials() {
 // lower id of a pair closes a discovered link the overlay no longer wants
 // once it has settled for a while.
 void Network::Impl::pruneLinks() {
-  const auto ids = overlayIds();
   const auto now = SteadyClock::now();
+  // Only once the membership has settled, so both ends agree on the overlay.
+  if (now - membershipChanged_ < kLinkGrace) return;
+  const auto ids = overlayIds();
   auto links = links_;
   for (const auto& link : links) {
     if (!link->established_ || link->explicitIndex_ >= 0) continue;
     const PeisId peer = link->peer_.id;
     if (self_ > peer || !beaconPeers_.count(peer)) continue;
-    if (now - link->establishedAt_ < kLinkGrace) continue;
-    if (!overlayWants(ids, self_, peer)) link->close("not needed by the overlay");
+    if (now - link->establishedAt_ < kLinkGrace || overlayWants(ids, self_, peer)) continue;
+    // Never cut a PEIS off: another neighbour must offer a route to it.
+    bool alternative = false;
+    for (const auto& [neighbour, advert] : adverts_) {
+      if (neighbour != peer && linkTo(neighbour) && advert.count(peer)) alternative = true;
+    }
+    if (alternative) link->close("not needed by the overlay");
   }
 }
 
