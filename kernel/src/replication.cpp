@@ -38,8 +38,15 @@ void Replication::onSubscribe(PeisId subscriber, const wire::Subscribe& subscrib
   const bool isNew = !subscriptions.count(subscribe.subscription);
   const auto lease = std::chrono::milliseconds(std::max<std::uint32_t>(subscribe.leaseMs, 300));
   subscriptions.insert_or_assign(subscribe.subscription, RemoteSubscription{pattern, now + lease});
-  if (!isNew) return;
-  for (const auto& tuple : space_.find(pattern)) {
+  const auto matching = space_.find(pattern);
+  if (!isNew) {
+    // A renewal: resend everything only if the subscriber is missing values.
+    std::uint64_t sum = 0;
+    for (const auto& tuple : matching) sum += tuple->seqno;
+    if (subscribe.knownSeqnoSum >= sum) return;
+    ++resyncs_;
+  }
+  for (const auto& tuple : matching) {
     pushUpdate(subscriber, tuple);
   }
 }
@@ -175,9 +182,13 @@ bool Replication::onDeleted(PeisId source, const wire::TupleDeleted& deleted) {
 void Replication::renew() {
   for (auto& [handle, local] : local_) {
     for (const auto& [owner, wireId] : local.wireIds) {
-      push(Outgoing{owner, nullptr,
-                    wire::Subscribe{wireId, static_cast<std::uint32_t>(lease_.count()),
-                                    local.pattern.ownerFilter(), local.pattern.keyPattern()}});
+      wire::Subscribe renewal{wireId, static_cast<std::uint32_t>(lease_.count()),
+                              local.pattern.ownerFilter(), local.pattern.keyPattern()};
+      for (const auto& tuple : space_.find(Pattern(local.pattern.keyPattern(), owner))) {
+        ++renewal.knownCount;
+        renewal.knownSeqnoSum += tuple->seqno;
+      }
+      push(Outgoing{owner, nullptr, std::move(renewal)});
     }
   }
 }

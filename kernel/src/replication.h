@@ -71,6 +71,8 @@ class Replication {
   static constexpr std::size_t kCoalesceOutboxAbove = 1 << 16;
   bool hasOutgoing() const { return !outbox_.empty(); }
   std::uint64_t staleDropped() const { return staleDropped_; }
+  // Renewals that showed a subscriber missing values, answered by a resync.
+  std::uint64_t resyncs() const { return resyncs_; }
   std::uint64_t incarnation() const { return incarnation_; }
 
  private:
@@ -104,6 +106,7 @@ class Replication {
   SubscriptionHandle nextHandle_ = 1;
   std::uint64_t nextWireId_ = 1;
   std::uint64_t staleDropped_ = 0;
+  std::uint64_t resyncs_ = 0;
 };
 
 }  // namespace peis

@@ -61,6 +61,16 @@ wire::Subscribe subscribeMsg(std::uint64_t id, std::string pattern,
   return wire::Subscribe{id, leaseMs, owner, std::move(pattern)};
 }
 
+// A renewal that says what the subscriber holds: `count` tuples whose
+// seqnos add up to `sum`.
+wire::Subscribe renewalMsg(std::uint64_t id, std::string pattern, std::uint32_t count,
+                           std::uint64_t sum) {
+  auto message = subscribeMsg(id, std::move(pattern));
+  message.knownCount = count;
+  message.knownSeqnoSum = sum;
+  return message;
+}
+
 template <typename T>
 const T* bodyAs(const Replication::Outgoing& out) {
   if (!out.body) return nullptr;
@@ -136,9 +146,16 @@ TEST_CASE("replication owner side: subscriptions, full sync, updates, leases",
     for (const auto& out : outbox) CHECK_FALSE(out.body);
     CHECK(f.replication.subscribers() == std::vector<PeisId>{9});
 
-    // Renewal with the same subscription id: no second sync.
-    f.replication.onSubscribe(9, subscribeMsg(1, "robot.*"), f.now + 2s);
+    // Renewal with the same subscription id from a subscriber that holds
+    // both values (seqnos 1 + 1): no second sync.
+    f.replication.onSubscribe(9, renewalMsg(1, "robot.*", 2, 2), f.now + 2s);
     CHECK(f.take().empty());
+    CHECK(f.replication.resyncs() == 0);
+
+    // A renewal showing a value was lost in transit: everything again.
+    f.replication.onSubscribe(9, renewalMsg(1, "robot.*", 1, 1), f.now + 2s);
+    CHECK(updatedKeys(f.take(), 9) == std::multiset<std::string>{"robot.x", "robot.y"});
+    CHECK(f.replication.resyncs() == 1);
 
     // A second pattern of the same subscriber is a new subscription.
     f.replication.onSubscribe(9, subscribeMsg(2, "**", std::nullopt), f.now);
@@ -257,7 +274,7 @@ TEST_CASE("replication owner side: subscriptions, full sync, updates, leases",
     CHECK_FALSE(f.replication.expireLeases(f.now + kLease - 1ms));
     CHECK_FALSE(f.replication.expireLeases(f.now + kLease));
     // A renewal at +4 s moves the end of the lease to +10 s.
-    f.replication.onSubscribe(9, subscribeMsg(1, "robot.*"), f.now + 4s);
+    f.replication.onSubscribe(9, renewalMsg(1, "robot.*", 2, 2), f.now + 4s);
     CHECK(f.take().empty());
     CHECK_FALSE(f.replication.expireLeases(f.now + 4s + kLease));
     CHECK(f.replication.subscribers() == std::vector<PeisId>{9});

@@ -272,11 +272,13 @@ TEST_CASE("wire: byte layout is big-endian and exact", "[unit][wire]") {
   }
   SECTION("Subscribe without owner writes owner 0") {
     CHECK(frameOf(RoutedMessage{Envelope{2, 3, 4}, Subscribe{5, 6000, std::nullopt, "a.*"}}) ==
-          hex("00 00 00 20 10 00 00 00 02 00 00 00 03 04"
-              "00 00 00 00 00 00 00 05"  // subscription
-              "00 00 17 70"              // lease 6000
-              "00 00 00 00 00"           // no owner, owner 0
-              "00 03 61 2e 2a"));        // str16 "a.*"
+          hex("00 00 00 2c 10 00 00 00 02 00 00 00 03 04"
+              "00 00 00 00 00 00 00 05"     // subscription
+              "00 00 17 70"                 // lease 6000
+              "00 00 00 00 00"              // no owner, owner 0
+              "00 03 61 2e 2a"              // str16 "a.*"
+              "00 00 00 00"                 // known count
+              "00 00 00 00 00 00 00 00"));  // known seqno sum
   }
   SECTION("TupleUpdate with its tuple") {
     Tuple t;

@@ -35,11 +35,11 @@ constexpr std::uint8_t kWithdrawn = 255;            // a route entry that is no 
 constexpr std::uint32_t kBeaconMagic = 0x50454942;  // "PEIB"
 constexpr std::size_t kReadChunk = 32 * 1024;
 constexpr std::size_t kWriteChunk = 256 * 1024;
-constexpr std::chrono::milliseconds kAdvertDelay{20};
+constexpr std::chrono::milliseconds kAdvertDelay{50};
 constexpr std::chrono::milliseconds kRedialPeriod{1000};
 constexpr std::chrono::seconds kLinkGrace{2};  // a link's minimum life before pruning
 constexpr std::chrono::milliseconds kDialQuiet{15};
-constexpr std::chrono::milliseconds kRecomputeDelay{10};
+constexpr std::chrono::milliseconds kRecomputeDelay{20};
 constexpr std::chrono::seconds kHoldFor{3};  // how long a frame waits for its source's route
 constexpr std::size_t kMaxHeldFrames = 1024;
 constexpr std::chrono::milliseconds kDialMaxDelay{300};

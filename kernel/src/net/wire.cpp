@@ -235,6 +235,8 @@ struct BodyEncoder {
     w.u8(m.owner ? 1 : 0);
     w.i32(m.owner.value_or(0));
     w.str16(m.keyPattern);
+    w.u32(m.knownCount);
+    w.u64(m.knownSeqnoSum);
   }
   void operator()(const Unsubscribe& m) { w.u64(m.subscription); }
   void operator()(const TupleUpdate& m) {
@@ -327,6 +329,8 @@ RoutedBody decodeBody(MessageType type, Reader& r, std::size_t maxDataBytes) {
         m.owner = owner;
       }
       m.keyPattern = r.str16("key pattern");
+      m.knownCount = r.u32("known count");
+      m.knownSeqnoSum = r.u64("known seqno sum");
       if (r.ok()) {
         if (auto problem = keyPatternProblem(m.keyPattern)) r.fail("bad key pattern: " + *problem);
       }

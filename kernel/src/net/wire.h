@@ -63,6 +63,11 @@ struct Subscribe {
   std::uint32_t leaseMs = 0;
   std::optional<PeisId> owner;
   std::string keyPattern;
+  // What the subscriber already holds of the owner's matching tuples: how
+  // many, and the sum of their seqnos. An owner that holds a larger sum
+  // sends everything again (anti-entropy for values lost in transit).
+  std::uint32_t knownCount = 0;
+  std::uint64_t knownSeqnoSum = 0;
   bool operator==(const Subscribe&) const = default;
 };
 struct Unsubscribe {

@@ -22,7 +22,7 @@
 //
 // Routed messages start with an envelope: i32 source | i32 destination | u8 ttl
 //   Subscribe    u64 subscription | u32 lease ms | u8 has owner | i32 owner |
-//                str16 key pattern
+//                str16 key pattern | u32 known count | u64 known seqno sum
 //   Unsubscribe  u64 subscription
 //   TupleUpdate  u64 owner incarnation | tuple
 //   TupleDeleted u64 owner incarnation | i32 owner | str16 key | u64 seqno
