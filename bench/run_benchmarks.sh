@@ -5,6 +5,7 @@ set -euo pipefail
 build=${1:-build}
 cd "$(dirname "$0")/.."
 export PEIS_LOG=quiet
+export PEIS_DISCOVERY_SCOPE=${PEIS_DISCOVERY_SCOPE:-loopback}
 out=$(mktemp)
 {
   echo "Measured $(date -u '+%Y-%m-%d %H:%M UTC') on $(nproc) cores ($(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ //')), $(uname -sr), build type RelWithDebInfo."
@@ -16,6 +17,20 @@ out=$(mktemp)
   echo "### One PEIS, no network — unpinned"
   echo
   "$build/bench/peis-bench-local"
+  echo
+  echo "### The ecology over loopback — pinned (taskset -c 0: every process on core 0)"
+  echo
+  taskset -c 0 "$build/bench/peis-bench-net" rtt
+  taskset -c 0 "$build/bench/peis-bench-net" throughput
+  taskset -c 0 "$build/bench/peis-bench-net" join
+  echo "### The ecology over loopback — unpinned"
+  echo
+  "$build/bench/peis-bench-net" rtt
+  "$build/bench/peis-bench-net" throughput
+  "$build/bench/peis-bench-net" join
+  echo "### Scale — unpinned (N processes on one host; pinning N PEIS to one core measures the scheduler)"
+  echo
+  "$build/bench/peis-bench-net" scale
 } >"$out"
 cat "$out"
 python3 - "$out" <<'PY'

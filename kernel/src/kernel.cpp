@@ -67,7 +67,7 @@ std::string hostName() {
 net::DiscoveryScope discoveryScope(const Options& options) {
   if (!options.discovery) return net::DiscoveryScope::Off;
   const char* env = std::getenv("PEIS_DISCOVERY_SCOPE");
-  return env && *env ? net::parseDiscoveryScope(env) : net::DiscoveryScope::Loopback;
+  return env && *env ? net::parseDiscoveryScope(env) : net::DiscoveryScope::Lan;
 }
 
 std::string joinIds(const std::vector<PeisId>& ids) {

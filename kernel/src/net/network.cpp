@@ -1054,6 +1054,8 @@ void Network::Impl::evaluateDials() {
     if (target <= self_ || !overlayWants(ids, self_, target)) continue;
     if (linkTo(target) || dialing_.count(target)) continue;
     const auto& peer = beaconPeers_[target];
+    log::debug(self_, "dialling PEIS " + std::to_string(target) + " (overlay of " +
+                          std::to_string(ids.size()) + ")");
     dialing_.insert(target);
     auto socket = std::make_shared<tcp::socket>(io_);
     socket->async_connect(tcp::endpoint(peer.address, peer.port),
