@@ -147,6 +147,13 @@ struct Kernel::Impl {
         replication(space, incarnation, options.subscriptionLease) {
     space.setObserver(
         [this](EventKind kind, const TuplePtr& t) { replication.onLocalEvent(kind, t); });
+    space.setNameSource([this](std::string_view wanted) {  // mu held
+      std::vector<PeisId> ids;
+      for (const auto& peer : peerSnapshot) {
+        if (peer.name == wanted) ids.push_back(peer.id);
+      }
+      return ids;
+    });
     space.setRetargetObserver(
         [this](CallbackId id, const std::optional<TupleRef>&, const std::optional<TupleRef>& to) {
           replication.onRetarget(id, to);
@@ -303,6 +310,7 @@ struct Kernel::Impl {
   }
 
   void refreshMembershipTuples() {  // mu held
+    space.refreshIndirects();       // names in meta tuples may resolve now
     std::vector<PeisId> ids, linked;
     for (const auto& peer : peerSnapshot) {
       if (peer.hops > 0) ids.push_back(peer.id);

@@ -146,7 +146,7 @@ std::string Options::helpText() {
          "  --peis-id N              this PEIS's id, 1..2147483647 (default: random)\n"
          "  --peis-name NAME         this PEIS's name, published as kernel.name\n"
          "                           (default: the program name)\n"
-         "  --peis-port P            TCP/UDP port to listen on (default: any free)\n"
+         "  --peis-port P            TCP port to listen on (default: any free)\n"
          "  --peis-connect HOST:PORT open a link to another PEIS (repeatable)\n"
          "  --peis-set-tuple KEY=VALUE  set an own tuple at start (repeatable)\n"
          "  --peis-ecology NAME      the ecology to join (default: default)\n"

@@ -123,8 +123,17 @@ void TupleSpace::changeSelf(PeisId newId) {
        it != tuples_.end() && it->first.owner == newId;) {
     it = tuples_.erase(it);
   }
+  const PeisId oldId = self_;
   self_ = newId;
+  // Callbacks on this PEIS's own tuples follow it to its new id.
+  for (auto& [id, entry] : callbacks_) {
+    if (entry->pattern.ownerFilter() == oldId) entry->pattern.owner(newId);
+  }
+  for (auto& [id, indirect] : indirects_) {
+    if (indirect->meta.owner == oldId) indirect->meta.owner = newId;
+  }
   for (auto& tuple : own) store(std::move(tuple));
+  refreshIndirects();
   allKeysDirty_ = true;
 }
 
@@ -308,11 +317,19 @@ std::vector<std::string> TupleSpace::keysOf(PeisId owner) const {
 }
 
 std::vector<PeisId> TupleSpace::peisNamed(std::string_view name) const {
-  std::vector<PeisId> ids;
+  std::vector<PeisId> ids = names_ ? names_(name) : std::vector<PeisId>{};
   for (const auto& [ref, tuple] : tuples_) {
     if (ref.key == "kernel.name" && tuple->data == name && live(tuple)) ids.push_back(ref.owner);
   }
+  std::sort(ids.begin(), ids.end());
+  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
   return ids;
+}
+
+void TupleSpace::refreshIndirects() {
+  std::vector<std::shared_ptr<Indirect>> all;
+  for (const auto& [id, indirect] : indirects_) all.push_back(indirect);
+  for (const auto& indirect : all) retarget(indirect);
 }
 
 PeisId TupleSpace::resolveOwner(std::string_view owner) const {

@@ -88,6 +88,11 @@ class TupleSpace {
   using RetargetObserver = std::function<void(CallbackId, const std::optional<TupleRef>&,
                                               const std::optional<TupleRef>&)>;
   void setRetargetObserver(RetargetObserver observer) { retargetObserver_ = std::move(observer); }
+  // More names than the cached kernel.name tuples (e.g. learnt from routes).
+  using NameSource = std::function<std::vector<PeisId>(std::string_view)>;
+  void setNameSource(NameSource names) { names_ = std::move(names); }
+  // Re-resolves every indirect callback (after the known names changed).
+  void refreshIndirects();
 
   // --- reads ----------------------------------------------------------------
   TuplePtr get(PeisId owner, std::string_view key) const;
@@ -181,6 +186,7 @@ class TupleSpace {
   bool allKeysDirty_ = true;
   Observer observer_;
   RetargetObserver retargetObserver_;
+  NameSource names_;
 };
 
 }  // namespace peis

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -29,6 +30,7 @@ const char* kUsage =
     "  node                        run a plain PEIS until killed or kernel.do-quit = yes\n"
     "  get OWNER.KEY [--wait S]    print a tuple's value; exit 1 if absent at the deadline\n"
     "  set OWNER.KEY VALUE         write a tuple; exit 0 once its owner accepted it\n"
+    "                              (put -- before a VALUE that starts with -)\n"
     "  watch PATTERN [--count N] [--timeout S]\n"
     "                              one line per change: OWNER.KEY = VALUE\n"
     "  tuples [PATTERN]            the current tuples of the ecology that match\n"
@@ -90,7 +92,12 @@ Args parseArgs(int argc, char** argv) {
         usageError("--count needs a number, not '" + text + "'");
       }
       if (args.count < 1) usageError("--count must be at least 1");
-    } else if (arg.size() > 1 && arg[0] == '-' && arg != "-") {
+    } else if (arg == "--") {  // the rest are values, even if they start with '-'
+      for (++i; i < argc; ++i) {
+        (args.command.empty() ? args.command : args.positional.emplace_back()) = argv[i];
+      }
+    } else if (arg.size() > 1 && arg[0] == '-' &&
+               !std::isdigit(static_cast<unsigned char>(arg[1]))) {
       usageError("unknown option " + arg);
     } else if (args.command.empty()) {
       args.command = arg;
