@@ -34,8 +34,9 @@ namespace asio = boost::asio;
 
 namespace {
 
-constexpr int kDeliveriesPerTurn = 256;         // then let timers and posts run
-constexpr std::size_t kMessagesPerTurn = 1024;  // network sends per turn, likewise
+constexpr std::size_t kDeliveriesPerTurn = 256;  // then let timers and posts run
+constexpr std::size_t kDeliveriesPerLock = 32;   // taken from the queue per lock
+constexpr std::size_t kMessagesPerTurn = 1024;   // network sends per turn, likewise
 
 PeisId pickId(const Options& options) {
   if (options.id) return *options.id;
@@ -183,12 +184,18 @@ struct Kernel::Impl {
   }
 
   void drain() {
-    for (int turn = 0; turn < kDeliveriesPerTurn; ++turn) {
-      std::optional<TupleSpace::Delivery> delivery;
+    std::vector<TupleSpace::Delivery> batch;
+    batch.reserve(kDeliveriesPerLock);
+    for (std::size_t turn = 0; turn < kDeliveriesPerTurn; turn += kDeliveriesPerLock) {
+      batch.clear();
       {
         std::lock_guard lock(mu);
-        delivery = space.nextDelivery();
-        if (!delivery) {
+        while (batch.size() < kDeliveriesPerLock) {
+          auto delivery = space.nextDelivery();
+          if (!delivery) break;
+          batch.push_back(std::move(*delivery));
+        }
+        if (batch.empty()) {
           if (space.allKeysDirty()) {
             space.flushAllKeys();
             if (waiters > 0) changed.notify_all();
@@ -198,18 +205,20 @@ struct Kernel::Impl {
           return;
         }
       }
-      // Each throwing callback is counted; the others for the event still run.
-      delivery->run([&](std::exception_ptr error) {
-        ++callbackErrors;
-        const auto what = delivery->tuple() ? delivery->tuple()->fullName() : std::string("?");
-        try {
-          std::rethrow_exception(error);
-        } catch (const std::exception& e) {
-          log::error(id, "a callback for " + what + " threw: " + e.what());
-        } catch (...) {
-          log::error(id, "a callback for " + what + " threw");
-        }
-      });
+      for (const auto& delivery : batch) {
+        // Each throwing callback is counted; the others for the event still run.
+        delivery.run([&](std::exception_ptr error) {
+          ++callbackErrors;
+          const auto what = delivery.tuple() ? delivery.tuple()->fullName() : std::string("?");
+          try {
+            std::rethrow_exception(error);
+          } catch (const std::exception& e) {
+            log::error(id, "a callback for " + what + " threw: " + e.what());
+          } catch (...) {
+            log::error(id, "a callback for " + what + " threw");
+          }
+        });
+      }
     }
     asio::post(io, [this] { drain(); });  // more to do: yield to timers first
   }
@@ -369,44 +378,52 @@ struct Kernel::Impl {
     }
   }
 
-  void onMessage(wire::RoutedMessage&& message) {
-    const auto source = message.envelope.source;
-    std::visit(
-        [&](auto&& body) {
-          using T = std::decay_t<decltype(body)>;
-          if constexpr (std::is_same_v<T, wire::WriteResult>) {
-            auto pending = pendingWrites.find(body.request);
-            if (pending == pendingWrites.end() || pending->second.owner != source) return;
-            if (body.status == 0) {
-              completeWrite(body.request, std::nullopt, body.seqno);
-            } else {
-              const auto code = static_cast<ErrorCode>(
-                  std::min<int>(body.status - 1, static_cast<int>(ErrorCode::Stopped)));
-              completeWrite(body.request,
-                            Error(code, "PEIS " + std::to_string(source) + ": " + body.message), 0);
-            }
-          } else {
-            std::lock_guard lock(mu);
-            if constexpr (std::is_same_v<T, wire::Subscribe>) {
-              replication.onSubscribe(source, body, std::chrono::steady_clock::now());
-              refreshSubscribersTuple();
-            } else if constexpr (std::is_same_v<T, wire::Unsubscribe>) {
-              replication.onUnsubscribe(source, body.subscription);
-              refreshSubscribersTuple();
-            } else if constexpr (std::is_same_v<T, wire::TupleUpdate>) {
-              const auto expiry = body.tuple.ts_expire;
-              if (replication.onUpdate(source, std::move(body)) && expiry != kNoTime) {
-                asio::post(io, [this, expiry] { scheduleExpiry(expiry); });
+  // Messages that arrived together (one socket read) are applied under one
+  // lock; write results complete outside it.
+  void onMessages(std::vector<wire::RoutedMessage>&& messages) {
+    std::vector<std::pair<PeisId, wire::WriteResult>> results;
+    {
+      std::lock_guard lock(mu);
+      for (auto& message : messages) {
+        const auto source = message.envelope.source;
+        std::visit(
+            [&](auto&& body) {
+              using T = std::decay_t<decltype(body)>;
+              if constexpr (std::is_same_v<T, wire::WriteResult>) {
+                results.emplace_back(source, std::move(body));
+              } else if constexpr (std::is_same_v<T, wire::Subscribe>) {
+                replication.onSubscribe(source, body, std::chrono::steady_clock::now());
+                refreshSubscribersTuple();
+              } else if constexpr (std::is_same_v<T, wire::Unsubscribe>) {
+                replication.onUnsubscribe(source, body.subscription);
+                refreshSubscribersTuple();
+              } else if constexpr (std::is_same_v<T, wire::TupleUpdate>) {
+                const auto expiry = body.tuple.ts_expire;
+                if (replication.onUpdate(source, std::move(body)) && expiry != kNoTime) {
+                  asio::post(io, [this, expiry] { scheduleExpiry(expiry); });
+                }
+              } else if constexpr (std::is_same_v<T, wire::TupleDeleted>) {
+                replication.onDeleted(source, body);
+              } else if constexpr (std::is_same_v<T, wire::Write>) {
+                replication.onWrite(source, body);
               }
-            } else if constexpr (std::is_same_v<T, wire::TupleDeleted>) {
-              replication.onDeleted(source, body);
-            } else if constexpr (std::is_same_v<T, wire::Write>) {
-              replication.onWrite(source, body);
-            }
-            afterMutation();
-          }
-        },
-        std::move(message.body));
+            },
+            std::move(message.body));
+      }
+      afterMutation();
+    }
+    for (auto& [source, result] : results) {
+      auto pending = pendingWrites.find(result.request);
+      if (pending == pendingWrites.end() || pending->second.owner != source) continue;
+      if (result.status == 0) {
+        completeWrite(result.request, std::nullopt, result.seqno);
+      } else {
+        const auto code = static_cast<ErrorCode>(
+            std::min<int>(result.status - 1, static_cast<int>(ErrorCode::Stopped)));
+        completeWrite(result.request,
+                      Error(code, "PEIS " + std::to_string(source) + ": " + result.message), 0);
+      }
+    }
   }
 
   PeisId repickId() {
@@ -519,7 +536,7 @@ struct Kernel::Impl {
     config.pingPeriod = std::max(options.liveness / 4, std::chrono::milliseconds(25));
     config.maxDataBytes = options.maxDataBytes;
     net::Network::Events events;
-    events.onMessage = [this](wire::RoutedMessage&& m) { onMessage(std::move(m)); };
+    events.onMessages = [this](std::vector<wire::RoutedMessage>&& m) { onMessages(std::move(m)); };
     events.onPeerUp = [this](const net::PeerInfo& p) { onPeerUp(p); };
     events.onPeerDown = [this](PeisId p) { onPeerDown(p); };
     events.repickId = [this] { return repickId(); };

@@ -210,6 +210,14 @@ class Network::Impl {
     SteadyClock::time_point arrived;
   };
   std::deque<Held> held_;
+  // Messages for this PEIS, handed over together once a read is parsed.
+  std::vector<wire::RoutedMessage> inbox_;
+  void flushInbox() {
+    if (inbox_.empty()) return;
+    auto messages = std::move(inbox_);
+    inbox_.clear();
+    if (events_.onMessages) events_.onMessages(std::move(messages));
+  }
   void collision(std::uint64_t otherIncarnation);
   void recompute();
   void scheduleAdvert();
@@ -376,6 +384,7 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
           }
           in.append(self->readBuffer_.get(), n);
           self->parse();
+          self->net_.flushInbox();
           self->read();
         });
   }
@@ -703,7 +712,7 @@ void Network::Impl::onRouted(const std::shared_ptr<Link>& link, std::string_view
 void Network::Impl::deliverOrForward(std::string_view frame, wire::RoutedMessage&& message) {
   const auto& envelope = message.envelope;
   if (envelope.destination == self_) {
-    if (events_.onMessage) events_.onMessage(std::move(message));
+    inbox_.push_back(std::move(message));
     return;
   }
   if (envelope.ttl <= 1) {
@@ -739,6 +748,7 @@ void Network::Impl::retryHeld() {
     }
   }
   for (auto& h : keep) held_.push_back(std::move(h));
+  flushInbox();
 }
 
 std::shared_ptr<Network::Impl::Link> Network::Impl::linkTo(PeisId peer) const {

@@ -68,8 +68,9 @@ struct Counters {
 class Network {
  public:
   struct Events {
-    // A routed message addressed to this PEIS arrived.
-    std::function<void(wire::RoutedMessage&&)> onMessage;
+    // Routed messages addressed to this PEIS arrived (those of one socket
+    // read together, in order).
+    std::function<void(std::vector<wire::RoutedMessage>&&)> onMessages;
     // A PEIS became reachable, or came back with a new incarnation.
     std::function<void(const PeerInfo&)> onPeerUp;
     // A PEIS is no longer reachable.
