@@ -9,6 +9,7 @@
 // callback. Exits 0 when the goal is met, 1 otherwise.
 #include <peis/peis.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -103,6 +104,7 @@ pid_t spawnSensor(const std::string& self, peis::PeisId id, const std::string& n
                   const std::string& ecology, const std::string& profile) {
   const pid_t pid = fork();
   if (pid == 0) {
+    prctl(PR_SET_PDEATHSIG, SIGKILL);  // never outlive the parent
     std::vector<std::string> args{
         self,        "--role",           "sensor",      "--profile", profile,
         "--peis-id", std::to_string(id), "--peis-name", name,        "--peis-ecology",

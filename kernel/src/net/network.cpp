@@ -35,11 +35,11 @@ constexpr std::uint8_t kWithdrawn = 255;            // a route entry that is no 
 constexpr std::uint32_t kBeaconMagic = 0x50454942;  // "PEIB"
 constexpr std::size_t kReadChunk = 32 * 1024;
 constexpr std::size_t kWriteChunk = 256 * 1024;
-constexpr std::chrono::milliseconds kAdvertDelay{50};
+constexpr std::chrono::milliseconds kAdvertDelay{100};
 constexpr std::chrono::milliseconds kRedialPeriod{1000};
 constexpr std::chrono::seconds kLinkGrace{2};  // a link's minimum life before pruning
 constexpr std::chrono::milliseconds kDialQuiet{15};
-constexpr std::chrono::milliseconds kRecomputeDelay{20};
+constexpr std::chrono::milliseconds kRecomputeDelay{100};
 constexpr std::chrono::seconds kHoldFor{3};  // how long a frame waits for its source's route
 constexpr std::size_t kMaxHeldFrames = 1024;
 constexpr std::chrono::milliseconds kDialMaxDelay{300};
@@ -236,6 +236,7 @@ class Network::Impl {
   void pruneLinks();
   std::vector<PeisId> overlayIds() const;
   static bool overlayWants(const std::vector<PeisId>& ids, PeisId a, PeisId b);
+  static std::vector<PeisId> fingers(const std::vector<PeisId>& ids, PeisId a);
   void pingLoop();
   void redialLoop();
   wire::Hello hello() const;
@@ -800,18 +801,24 @@ bool Network::Impl::sendUpdate(PeisId destination, std::uint64_t incarnation, co
 void Network::Impl::recompute() {
   std::map<PeisId, Route> next;
   next[self_] = Route{0, self_, incarnation_, config_.name};
-  auto offer = [&](PeisId id, const Route& route) {
-    auto [it, inserted] = next.try_emplace(id, route);
-    if (inserted) return;
+  // Builds a Route (and copies its name) only when it wins.
+  auto offer = [&](PeisId id, int hops, PeisId nextHop, std::uint64_t incarnation,
+                   const std::string& name) {
+    auto it = next.lower_bound(id);
+    if (it == next.end() || it->first != id) {
+      next.emplace_hint(it, id, Route{hops, nextHop, incarnation, name});
+      return;
+    }
     auto& current = it->second;
+    if (hops > current.hops) return;
     const auto old = routes_.find(id);
-    const bool keepsOld = old != routes_.end() && old->second.nextHop == route.nextHop;
-    if (route.hops < current.hops || (route.hops == current.hops && keepsOld)) current = route;
+    const bool keepsOld = old != routes_.end() && old->second.nextHop == nextHop;
+    if (hops < current.hops || keepsOld) current = Route{hops, nextHop, incarnation, name};
   };
   for (const auto& link : links_) {
     if (!link->established_) continue;
     const auto& peer = link->peer_;
-    offer(peer.id, Route{1, peer.id, peer.incarnation, peer.name});
+    offer(peer.id, 1, peer.id, peer.incarnation, peer.name);
     auto advert = adverts_.find(peer.id);
     if (advert == adverts_.end()) continue;
     for (const auto& [entryId, entry] : advert->second) {
@@ -824,7 +831,7 @@ void Network::Impl::recompute() {
         continue;
       }
       if (entry.hops + 1 > kMaxHops) continue;
-      offer(entry.id, Route{entry.hops + 1, peer.id, entry.incarnation, entry.name});
+      offer(entry.id, entry.hops + 1, peer.id, entry.incarnation, entry.name);
     }
   }
   if (next == routes_) return retryHeld();
@@ -1020,9 +1027,9 @@ void Network::Impl::onBeacon(const Beacon& beacon, const udp::endpoint& from) {
   }
 }
 
-// The overlay: in id order (wrapping), each PEIS wants links to the PEIS at
-// distances 1, 2, 4, 8, ... after it: a connected graph of O(log N) links
-// each. Of every wanted pair, only the lower id dials, so no link is doubled.
+// The overlay: each PEIS wants links to its fingers (below) and to the PEIS
+// whose fingers it is: a connected graph of O(log N) links each. Of every
+// wanted pair, only the lower id dials, so no link is doubled.
 std::vector<PeisId> Network::Impl::overlayIds() const {
   std::vector<PeisId> ids{self_};
   for (const auto& [id, peer] : beaconPeers_) ids.push_back(id);
@@ -1030,17 +1037,34 @@ std::vector<PeisId> Network::Impl::overlayIds() const {
   return ids;
 }
 
-bool Network::Impl::overlayWants(const std::vector<PeisId>& ids, PeisId a, PeisId b) {
-  const auto n = ids.size();
-  const auto ia =
-      static_cast<std::size_t>(std::lower_bound(ids.begin(), ids.end(), a) - ids.begin());
-  const auto ib =
-      static_cast<std::size_t>(std::lower_bound(ids.begin(), ids.end(), b) - ids.begin());
-  if (ia >= n || ib >= n || ids[ia] != a || ids[ib] != b) return false;
-  for (std::size_t step = 1; step < n; step *= 2) {
-    if ((ia + step) % n == ib || (ib + step) % n == ia) return true;
+// Chord-like fingers in id space: for every k, the known PEIS closest after
+// `a` at a distance in [2^k, 2^(k+1)) (ids wrap at 2^31). The nearest one of
+// all (the successor) closes the ring, so the overlay stays connected; a
+// PEIS joining moves at most a few fingers, so links do not churn.
+std::vector<PeisId> Network::Impl::fingers(const std::vector<PeisId>& ids, PeisId a) {
+  constexpr std::uint64_t kSpace = 1ull << 31;
+  std::array<std::uint64_t, 32> best;
+  best.fill(kSpace);
+  for (const PeisId x : ids) {
+    if (x == a) continue;
+    const auto d =
+        (static_cast<std::uint64_t>(x) + kSpace - static_cast<std::uint64_t>(a)) % kSpace;
+    const auto k = static_cast<std::size_t>(63 - __builtin_clzll(d));
+    best[k] = std::min(best[k], d);
   }
-  return false;
+  std::vector<PeisId> result;
+  for (const auto d : best) {
+    if (d < kSpace)
+      result.push_back(static_cast<PeisId>((static_cast<std::uint64_t>(a) + d) % kSpace));
+  }
+  return result;
+}
+
+bool Network::Impl::overlayWants(const std::vector<PeisId>& ids, PeisId a, PeisId b) {
+  const auto fa = fingers(ids, a);
+  if (std::find(fa.begin(), fa.end(), b) != fa.end()) return true;
+  const auto fb = fingers(ids, b);
+  return std::find(fb.begin(), fb.end(), a) != fb.end();
 }
 
 void Network::Impl::scheduleDials() {
