@@ -33,16 +33,13 @@ out=$(mktemp)
   "$build/bench/peis-bench-net" scale
 } >"$out"
 cat "$out"
-python3 - "$out" <<'PY'
-import re, sys
-results = open(sys.argv[1]).read()
-path = "docs/performance.md"
-text = open(path).read()
-begin, end = "<!-- RESULTS:BEGIN -->", "<!-- RESULTS:END -->"
-if begin not in text or end not in text:
-    sys.exit("docs/performance.md lacks the RESULTS markers")
-head, rest = text.split(begin, 1)
-_, tail = rest.split(end, 1)
-open(path, "w").write(head + begin + "\n" + results + end + tail)
-print("updated", path)
-PY
+# Splice the results between the markers (awk: no Python needed).
+doc=docs/performance.md
+grep -q '<!-- RESULTS:BEGIN -->' "$doc" && grep -q '<!-- RESULTS:END -->' "$doc" ||
+  { echo "docs/performance.md lacks the RESULTS markers" >&2; exit 1; }
+awk -v results="$out" '
+  /<!-- RESULTS:BEGIN -->/ { print; while ((getline line < results) > 0) print line; skip = 1; next }
+  /<!-- RESULTS:END -->/ { skip = 0 }
+  !skip { print }
+' "$doc" >"$doc.new" && mv "$doc.new" "$doc"
+echo "updated $doc"
