@@ -1,0 +1,56 @@
+/* The host port's radio: an 802.15.4-like broadcast medium simulated over
+ * UDP on 127.0.0.1. The medium is a range of `slots` ports from `base_port`;
+ * each node binds the first free one and sends every frame to all the
+ * others (so any number of processes up to `slots` share one medium, and
+ * separate tests use separate bases). Loss, duplication and delay (with
+ * jitter) are applied on the sending side, per frame and per receiver.
+ */
+#ifndef TINY_HOST_MEDIUM_H
+#define TINY_HOST_MEDIUM_H
+
+#include <stdint.h>
+
+#include "tiny_kernel.h"
+
+#define HOST_MEDIUM_PENDING 64 /* delayed frames held at once */
+
+typedef struct host_medium_config {
+  unsigned base_port; /* TINY_MEDIUM_PORT, default 47100 */
+  unsigned slots;     /* TINY_MEDIUM_SLOTS, default 8 (max 64) */
+  unsigned loss_pct;  /* TINY_LOSS: percent of frames lost */
+  unsigned dup_pct;   /* TINY_DUP: percent of frames delivered twice */
+  unsigned delay_ms;  /* TINY_DELAY_MS: fixed delay of every frame */
+  unsigned jitter_ms; /* TINY_JITTER_MS: extra random delay 0..jitter */
+} host_medium_config;
+
+typedef struct host_pending {
+  uint32_t due_ms;
+  uint16_t port;
+  uint8_t len;
+  uint8_t buf[TINY_FRAME_MAX];
+} host_pending;
+
+typedef struct host_medium {
+  host_medium_config cfg;
+  int fd;
+  unsigned slot;
+  uint32_t rng;
+  uint32_t lost, duplicated, delayed, overflow;
+  host_pending pending[HOST_MEDIUM_PENDING];
+  uint8_t pending_used[HOST_MEDIUM_PENDING];
+} host_medium;
+
+/* Fills cfg from the environment (defaults above). */
+void host_medium_config_from_env(host_medium_config *cfg);
+/* Opens the medium: binds the first free slot. Returns 0, or -1 (errno). */
+int host_medium_open(host_medium *m, const host_medium_config *cfg);
+void host_medium_close(host_medium *m);
+/* A HAL on this medium (ctx = m) with a monotonic millisecond clock. */
+tiny_hal host_medium_hal(host_medium *m);
+/* Milliseconds of CLOCK_MONOTONIC, wrapping. */
+uint32_t host_now_ms(void);
+/* Sends the delayed frames that are due; returns ms until the next one is
+ * due (or `idle_ms` if none). */
+int host_medium_flush(host_medium *m, int idle_ms);
+
+#endif

@@ -1,0 +1,142 @@
+/* main() of the host port: runs one device program (linked beside this
+ * file) as a tiny node on the simulated medium.
+ *
+ *   <program> [--id N] [--run-ms N]
+ *
+ * Environment: TINY_MEDIUM_PORT, TINY_MEDIUM_SLOTS, TINY_LOSS, TINY_DUP,
+ * TINY_DELAY_MS, TINY_JITTER_MS (the medium, see host_medium.h);
+ * TINY_LIGHT (the light sensor: a fixed level 0..1000, default a slow
+ * day-night ramp), TINY_WEIGHT (the weight sensor in grams, default 1250).
+ * Every report is a line "<event> <value>" on stdout; the kernel counters go
+ * to stderr at exit (SIGINT, SIGTERM or --run-ms). */
+#define _POSIX_C_SOURCE 200809L
+#include <errno.h>
+#include <poll.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "host_medium.h"
+#include "tiny_app.h"
+
+static volatile sig_atomic_t stop_requested;
+static uint32_t start_ms;
+
+static void on_signal(int sig) {
+  (void)sig;
+  stop_requested = 1;
+}
+
+void tiny_port_report(const char *event, long value) {
+  printf("%s %ld\n", event, value);
+  fflush(stdout);
+}
+
+long tiny_port_sensor(uint8_t channel) {
+  const char *v;
+  uint32_t t = host_now_ms() - start_ms;
+  switch (channel) {
+    case TINY_SENSOR_LIGHT:
+      v = getenv("TINY_LIGHT");
+      if (v != NULL && *v != '\0') return strtol(v, NULL, 10);
+      /* A day in 40 s: a triangle wave 0..1000. */
+      t %= 40000u;
+      return t < 20000u ? (long)(t / 20u) : (long)((40000u - t) / 20u);
+    case TINY_SENSOR_WEIGHT:
+      v = getenv("TINY_WEIGHT");
+      if (v != NULL && *v != '\0') return strtol(v, NULL, 10);
+      return 1250;
+    default:
+      return 0;
+  }
+}
+
+static void print_stats(const tiny_kernel *k, const host_medium *m) {
+  const tiny_stats *s = tiny_get_stats(k);
+  fprintf(stderr,
+          "tiny %u: rx %lu ok %lu tx %lu send-errors %lu | dropped: truncated %lu bad-length %lu "
+          "bad-version %lu unknown-type %lu too-many-subkeys %lu bad-key %lu data-too-long %lu "
+          "bad-src %lu | accepted %lu stale %lu unwanted %lu not-for-me %lu cache-full %lu "
+          "subscribers-full %lu | medium: lost %lu duplicated %lu delayed %lu overflow %lu\n",
+          (unsigned)k->id, (unsigned long)s->frames_rx, (unsigned long)s->frames_ok,
+          (unsigned long)s->frames_tx, (unsigned long)s->send_errors,
+          (unsigned long)s->drop_truncated, (unsigned long)s->drop_bad_length,
+          (unsigned long)s->drop_bad_version, (unsigned long)s->drop_unknown_type,
+          (unsigned long)s->drop_too_many_subkeys, (unsigned long)s->drop_bad_key,
+          (unsigned long)s->drop_data_too_long, (unsigned long)s->drop_bad_src,
+          (unsigned long)s->tuples_accepted, (unsigned long)s->tuples_stale,
+          (unsigned long)s->tuples_unwanted, (unsigned long)s->not_for_me,
+          (unsigned long)s->cache_full, (unsigned long)s->subscribers_full, (unsigned long)m->lost,
+          (unsigned long)m->duplicated, (unsigned long)m->delayed, (unsigned long)m->overflow);
+}
+
+static int parse_arg(const char *v, unsigned long max, unsigned long *out) {
+  char *end;
+  unsigned long x;
+  if (v == NULL || *v == '\0') return -1;
+  errno = 0;
+  x = strtoul(v, &end, 10);
+  if (errno != 0 || *end != '\0' || x > max) return -1;
+  *out = x;
+  return 0;
+}
+
+static host_medium medium;
+static tiny_kernel kernel;
+
+int main(int argc, char **argv) {
+  host_medium_config cfg;
+  tiny_hal hal;
+  unsigned long id = app_default_id(), run_ms = 0;
+  int i;
+  struct sigaction sa;
+  for (i = 1; i < argc; ++i) {
+    if (strcmp(argv[i], "--id") == 0 && i + 1 < argc) {
+      if (parse_arg(argv[++i], 0xFFFEul, &id) != 0 || id == 0) {
+        fprintf(stderr, "%s: --id takes 1..65534\n", argv[0]);
+        return 2;
+      }
+    } else if (strcmp(argv[i], "--run-ms") == 0 && i + 1 < argc) {
+      if (parse_arg(argv[++i], 0xFFFFFFFFul, &run_ms) != 0) {
+        fprintf(stderr, "%s: --run-ms takes milliseconds\n", argv[0]);
+        return 2;
+      }
+    } else {
+      fprintf(stderr, "usage: %s [--id N] [--run-ms N]\n", argv[0]);
+      return 2;
+    }
+  }
+  memset(&sa, 0, sizeof sa);
+  sa.sa_handler = on_signal;
+  sigaction(SIGINT, &sa, NULL);
+  sigaction(SIGTERM, &sa, NULL);
+
+  host_medium_config_from_env(&cfg);
+  if (host_medium_open(&medium, &cfg) != 0) {
+    fprintf(stderr, "%s: cannot join the medium on 127.0.0.1:%u..%u: %s\n", argv[0], cfg.base_port,
+            cfg.base_port + cfg.slots - 1, strerror(errno));
+    return 1;
+  }
+  hal = host_medium_hal(&medium);
+  start_ms = host_now_ms();
+  tiny_init(&kernel, (uint16_t)id, &hal);
+  fprintf(stderr, "tiny %lu on 127.0.0.1:%u\n", id, cfg.base_port + medium.slot);
+  app_setup(&kernel);
+  while (!stop_requested) {
+    struct pollfd pfd;
+    uint32_t now = host_now_ms();
+    int wait_ms;
+    if (run_ms != 0 && (uint32_t)(now - start_ms) >= run_ms) break;
+    tiny_poll(&kernel, now);
+    app_loop(&kernel, now);
+    wait_ms = host_medium_flush(&medium, 10);
+    pfd.fd = medium.fd;
+    pfd.events = POLLIN;
+    pfd.revents = 0;
+    (void)poll(&pfd, 1, wait_ms);
+  }
+  print_stats(&kernel, &medium);
+  host_medium_close(&medium);
+  return 0;
+}
