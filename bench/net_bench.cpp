@@ -99,16 +99,6 @@ class Child {
   FILE* out_ = nullptr;
 };
 
-std::vector<std::string> peisArgs(const std::string& ecology, int id, std::uint16_t connectPort) {
-  std::vector<std::string> args{"--peis-ecology", ecology, "--peis-id", std::to_string(id),
-                                "--peis-no-discovery"};
-  if (connectPort) {
-    args.push_back("--peis-connect");
-    args.push_back("127.0.0.1:" + std::to_string(connectPort));
-  }
-  return args;
-}
-
 peis::Options hostOptions(const std::string& ecology, int id, bool discovery = false) {
   peis::Options options;
   options.ecology = ecology;

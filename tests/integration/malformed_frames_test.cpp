@@ -130,9 +130,11 @@ TEST_CASE("a live PEIS survives a corpus of malformed frames and keeps serving",
        }},
       {"wrong protocol version", [&] { return hello(ecology, 7100, 99); }},
       {"another ecology", [] { return hello("someone-else", 7101); }},
-      {"negative id in Hello", [&] { return hello(ecology, 7102).replace(
-                                                 4 + 1 + 4 + 2 + 1 + ecology.size(), 4,
-                                                 std::string("\xff\xff\xff\xfe", 4)); }},
+      {"negative id in Hello",
+       [&] {
+         return hello(ecology, 7102)
+             .replace(4 + 1 + 4 + 2 + 1 + ecology.size(), 4, std::string("\xff\xff\xff\xfe", 4));
+       }},
       {"the subscriber's id with another incarnation", [&] { return hello(ecology, 7002); }},
       {"the owner's own id with another incarnation", [&] { return hello(ecology, 7001); }},
   };
@@ -156,9 +158,9 @@ TEST_CASE("a live PEIS survives a corpus of malformed frames and keeps serving",
       return false;
     }));
     const std::vector<std::string> bad = {
-        rawFrame(99, "x"),                                   // unknown type
-        rawFrame(2, "short"),                                // truncated Ping
-        rawFrame(2, std::string(9, 'x')),                    // Ping with a trailing byte
+        rawFrame(99, "x"),                 // unknown type
+        rawFrame(2, "short"),              // truncated Ping
+        rawFrame(2, std::string(9, 'x')),  // Ping with a trailing byte
         frame(peis::wire::RoutedMessage{peis::wire::Envelope{7200, 7001, 5},  // bad key pattern
                                         peis::wire::Subscribe{1, 1000, std::nullopt, "a..b"}}),
         frame(peis::wire::RoutedMessage{peis::wire::Envelope{7002, 7001, 5},  // spoofed source
