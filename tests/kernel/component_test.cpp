@@ -12,6 +12,7 @@
 #include "peis/descriptor.h"
 #include "peis/error.h"
 #include "peis/kernel.h"
+#include "support/error_matchers.h"
 #include "support/wait_for.h"
 
 using namespace std::chrono_literals;
@@ -32,17 +33,7 @@ peis::Options testOptions() {
   return o;
 }
 
-class HasCode : public Catch::MatcherBase<peis::Error> {
- public:
-  explicit HasCode(ErrorCode code) : code_(code) {}
-  bool match(const peis::Error& error) const override { return error.code() == code_; }
-  std::string describe() const override {
-    return std::string("has error code ") + peis::toString(code_);
-  }
-
- private:
-  ErrorCode code_;
-};
+using peis::test::HasCode;
 
 std::string dataOf(const peis::Kernel& k, const std::string& key) {
   auto tuple = k.get(key);

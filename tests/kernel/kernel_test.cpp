@@ -16,6 +16,7 @@
 
 #include "peis/error.h"
 #include "peis/key.h"
+#include "support/error_matchers.h"
 #include "support/wait_for.h"
 
 using namespace std::chrono_literals;
@@ -37,17 +38,7 @@ peis::Options testOptions(peis::PeisId id = kId, std::string name = "tester") {
   return o;
 }
 
-class HasCode : public Catch::MatcherBase<peis::Error> {
- public:
-  explicit HasCode(ErrorCode code) : code_(code) {}
-  bool match(const peis::Error& error) const override { return error.code() == code_; }
-  std::string describe() const override {
-    return std::string("has error code ") + peis::toString(code_);
-  }
-
- private:
-  ErrorCode code_;
-};
+using peis::test::HasCode;
 
 std::vector<std::string> words(const std::string& text) {
   std::istringstream in(text);

@@ -14,6 +14,7 @@
 #include "peis/pattern.h"
 #include "peis/tuple.h"
 #include "peis/types.h"
+#include "support/error_matchers.h"
 #include "support/wait_for.h"
 #include "tuple_space.h"
 
@@ -32,17 +33,7 @@ namespace {
 
 constexpr peis::PeisId kSelf = 7;
 
-class HasCode : public Catch::MatcherBase<Error> {
- public:
-  explicit HasCode(ErrorCode code) : code_(code) {}
-  bool match(const Error& error) const override { return error.code() == code_; }
-  std::string describe() const override {
-    return std::string("has error code '") + peis::toString(code_) + "'";
-  }
-
- private:
-  ErrorCode code_;
-};
+using peis::test::HasCode;
 
 Tuple remoteTuple(peis::PeisId owner, std::string key, std::string data, std::uint64_t seqno,
                   std::string mimetype = peis::kDefaultMimetype) {

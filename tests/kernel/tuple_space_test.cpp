@@ -17,6 +17,7 @@
 #include "peis/pattern.h"
 #include "peis/tuple.h"
 #include "peis/types.h"
+#include "support/error_matchers.h"
 #include "support/wait_for.h"
 
 using namespace std::chrono_literals;
@@ -33,17 +34,7 @@ namespace {
 
 constexpr peis::PeisId kSelf = 7;
 
-class HasCode : public Catch::MatcherBase<Error> {
- public:
-  explicit HasCode(ErrorCode code) : code_(code) {}
-  bool match(const Error& error) const override { return error.code() == code_; }
-  std::string describe() const override {
-    return std::string("has error code '") + peis::toString(code_) + "'";
-  }
-
- private:
-  ErrorCode code_;
-};
+using peis::test::HasCode;
 
 // A tuple as another owner would have stamped it.
 Tuple remoteTuple(peis::PeisId owner, std::string key, std::string data, std::uint64_t seqno) {

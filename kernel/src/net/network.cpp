@@ -222,6 +222,8 @@ class Network::Impl {
   void recompute();
   void scheduleAdvert();
   void scheduleRecompute();
+  void debounce(asio::steady_timer& timer, bool& scheduled, std::chrono::milliseconds delay,
+                void (Impl::*work)());
   void advertise();
   std::shared_ptr<Link> linkTo(PeisId peer) const;
   bool forward(PeisId destination, std::string frame);
@@ -853,24 +855,24 @@ void Network::Impl::recompute() {
   }
 }
 
-void Network::Impl::scheduleRecompute() {
-  if (recomputeScheduled_ || stopped_) return;
-  recomputeScheduled_ = true;
-  recomputeTimer_.expires_after(kRecomputeDelay);
-  recomputeTimer_.async_wait([this](const boost::system::error_code& ec) {
-    recomputeScheduled_ = false;
-    if (!ec && !stopped_) recompute();
+// Runs `work` once, `delay` after the first of any number of requests.
+void Network::Impl::debounce(asio::steady_timer& timer, bool& scheduled,
+                             std::chrono::milliseconds delay, void (Impl::*work)()) {
+  if (scheduled || stopped_) return;
+  scheduled = true;
+  timer.expires_after(delay);
+  timer.async_wait([this, &scheduled, work](const boost::system::error_code& ec) {
+    scheduled = false;
+    if (!ec && !stopped_) (this->*work)();
   });
 }
 
+void Network::Impl::scheduleRecompute() {
+  debounce(recomputeTimer_, recomputeScheduled_, kRecomputeDelay, &Impl::recompute);
+}
+
 void Network::Impl::scheduleAdvert() {
-  if (advertScheduled_ || stopped_) return;
-  advertScheduled_ = true;
-  advertTimer_.expires_after(kAdvertDelay);
-  advertTimer_.async_wait([this](const boost::system::error_code& ec) {
-    advertScheduled_ = false;
-    if (!ec && !stopped_) advertise();
-  });
+  debounce(advertTimer_, advertScheduled_, kAdvertDelay, &Impl::advertise);
 }
 
 // Tells each linked PEIS what changed in the routes it should know (split
