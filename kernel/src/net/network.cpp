@@ -18,6 +18,8 @@
 #include <set>
 
 #include "log.h"
+#include "net/beacon.h"
+#include "net/overlay.h"
 #include "peis/error.h"
 #include "peis/key.h"
 #include "peis/options.h"
@@ -31,8 +33,7 @@ using SteadyClock = std::chrono::steady_clock;
 namespace {
 
 constexpr int kMaxHops = 32;
-constexpr std::uint8_t kWithdrawn = 255;            // a route entry that is no longer valid
-constexpr std::uint32_t kBeaconMagic = 0x50454942;  // "PEIB"
+constexpr std::uint8_t kWithdrawn = 255;  // a route entry that is no longer valid
 constexpr std::size_t kReadChunk = 32 * 1024;
 constexpr std::size_t kWriteChunk = 256 * 1024;
 constexpr std::chrono::milliseconds kAdvertDelay{100};
@@ -46,62 +47,6 @@ constexpr std::chrono::milliseconds kDialMaxDelay{300};
 
 std::string endpointText(const tcp::endpoint& e) {
   return e.address().to_string() + ":" + std::to_string(e.port());
-}
-
-// Beacon: u32 magic | u16 version | str8 ecology | i32 id | u64 incarnation |
-// u16 tcp port | u8 flags (1: please answer with a unicast beacon)
-struct Beacon {
-  std::string ecology;
-  PeisId id = 0;
-  std::uint64_t incarnation = 0;
-  std::uint16_t port = 0;
-  bool wantsAnswer = false;
-};
-
-std::string encodeBeacon(const Beacon& b) {
-  std::string out;
-  auto put = [&](std::uint64_t v, int bytes) {
-    for (int i = bytes - 1; i >= 0; --i) out.push_back(static_cast<char>(v >> (8 * i)));
-  };
-  put(kBeaconMagic, 4);
-  put(wire::kVersion, 2);
-  put(b.ecology.size(), 1);
-  out += b.ecology;
-  put(static_cast<std::uint32_t>(b.id), 4);
-  put(b.incarnation, 8);
-  put(b.port, 2);
-  put(b.wantsAnswer ? 1 : 0, 1);
-  return out;
-}
-
-std::optional<Beacon> decodeBeacon(std::string_view in) {
-  std::size_t pos = 0;
-  bool ok = true;
-  auto get = [&](int bytes) -> std::uint64_t {
-    if (!ok || in.size() - pos < static_cast<std::size_t>(bytes)) {
-      ok = false;
-      return 0;
-    }
-    std::uint64_t v = 0;
-    for (int i = 0; i < bytes; ++i) v = (v << 8) | static_cast<std::uint8_t>(in[pos++]);
-    return v;
-  };
-  Beacon b;
-  if (get(4) != kBeaconMagic || get(2) != wire::kVersion) return std::nullopt;
-  const auto length = get(1);
-  if (!ok || in.size() - pos < length) return std::nullopt;
-  b.ecology = std::string(in.substr(pos, length));
-  pos += length;
-  const auto id = static_cast<std::int32_t>(get(4));
-  b.incarnation = get(8);
-  b.port = static_cast<std::uint16_t>(get(2));
-  const auto flags = get(1);
-  if (!ok || pos != in.size() || !isValidPeisId(id) || b.port == 0 || flags > 1) {
-    return std::nullopt;
-  }
-  b.id = id;
-  b.wantsAnswer = flags == 1;
-  return b;
 }
 
 std::vector<asio::ip::address_v4> broadcastAddresses(DiscoveryScope scope) {
@@ -237,8 +182,6 @@ class Network::Impl {
   void scheduleDials();
   void pruneLinks();
   std::vector<PeisId> overlayIds() const;
-  static bool overlayWants(const std::vector<PeisId>& ids, PeisId a, PeisId b);
-  static std::vector<PeisId> fingers(const std::vector<PeisId>& ids, PeisId a);
   void pingLoop();
   void redialLoop();
   wire::Hello hello() const;
@@ -1037,36 +980,6 @@ std::vector<PeisId> Network::Impl::overlayIds() const {
   for (const auto& [id, peer] : beaconPeers_) ids.push_back(id);
   std::sort(ids.begin(), ids.end());
   return ids;
-}
-
-// Chord-like fingers in id space: for every k, the known PEIS closest after
-// `a` at a distance in [2^k, 2^(k+1)) (ids wrap at 2^31). The nearest one of
-// all (the successor) closes the ring, so the overlay stays connected; a
-// PEIS joining moves at most a few fingers, so links do not churn.
-std::vector<PeisId> Network::Impl::fingers(const std::vector<PeisId>& ids, PeisId a) {
-  constexpr std::uint64_t kSpace = 1ull << 31;
-  std::array<std::uint64_t, 32> best;
-  best.fill(kSpace);
-  for (const PeisId x : ids) {
-    if (x == a) continue;
-    const auto d =
-        (static_cast<std::uint64_t>(x) + kSpace - static_cast<std::uint64_t>(a)) % kSpace;
-    const auto k = static_cast<std::size_t>(63 - __builtin_clzll(d));
-    best[k] = std::min(best[k], d);
-  }
-  std::vector<PeisId> result;
-  for (const auto d : best) {
-    if (d < kSpace)
-      result.push_back(static_cast<PeisId>((static_cast<std::uint64_t>(a) + d) % kSpace));
-  }
-  return result;
-}
-
-bool Network::Impl::overlayWants(const std::vector<PeisId>& ids, PeisId a, PeisId b) {
-  const auto fa = fingers(ids, a);
-  if (std::find(fa.begin(), fa.end(), b) != fa.end()) return true;
-  const auto fb = fingers(ids, b);
-  return std::find(fb.begin(), fb.end(), a) != fb.end();
 }
 
 void Network::Impl::scheduleDials() {
