@@ -1,0 +1,216 @@
+/* The LM3S6965 port (Cortex-M3, the board qemu-system-arm emulates as
+ * lm3s6965evb): runs one device program (linked beside this file) as a
+ * tiny node whose radio is a serial radio on UART0, with the same framing
+ * as the ATmega128 port (tiny_serial.h: 0x7E, LEN, frame, checksum).
+ *
+ *  - UART0: 115200 8N1, interrupt-driven reception into a ring buffer,
+ *    polled transmission;
+ *  - clock: SysTick every millisecond (TINY_ARM_CPU_HZ, 12 MHz after reset);
+ *  - tiny_port_report keeps the last value in arm_last_report (no LED);
+ *  - tiny_port_sensor returns constants (light TINY_ARM_LIGHT, weight
+ *    TINY_ARM_WEIGHT): the emulated board has no sensors.
+ *
+ * Startup (vector table, .data copy, .bss zeroing) is in this file too.
+ */
+#include <stdint.h>
+#include <string.h>
+
+#include "tiny_app.h"
+#include "tiny_serial.h"
+
+#ifndef TINY_ARM_CPU_HZ
+#define TINY_ARM_CPU_HZ 12000000ul
+#endif
+#ifndef TINY_ARM_BAUD
+#define TINY_ARM_BAUD 115200ul
+#endif
+#ifndef TINY_ARM_LIGHT
+#define TINY_ARM_LIGHT 500
+#endif
+#ifndef TINY_ARM_WEIGHT
+#define TINY_ARM_WEIGHT 1250
+#endif
+#define RX_RING 128u
+
+#define REG(addr) (*(volatile uint32_t *)(addr))
+#define SYSCTL_RCGC1 REG(0x400FE104u)
+#define SYSCTL_RCGC2 REG(0x400FE108u)
+#define GPIOA_AFSEL REG(0x40004420u)
+#define GPIOA_DEN REG(0x4000451Cu)
+#define UART0_DR REG(0x4000C000u)
+#define UART0_FR REG(0x4000C018u)
+#define UART0_IBRD REG(0x4000C024u)
+#define UART0_FBRD REG(0x4000C028u)
+#define UART0_LCRH REG(0x4000C02Cu)
+#define UART0_CTL REG(0x4000C030u)
+#define UART0_IM REG(0x4000C038u)
+#define UART0_ICR REG(0x4000C044u)
+#define UART_FR_RXFE 0x10u
+#define UART_FR_TXFF 0x20u
+#define NVIC_ISER0 REG(0xE000E100u)
+#define SYST_CSR REG(0xE000E010u)
+#define SYST_RVR REG(0xE000E014u)
+#define SYST_CVR REG(0xE000E018u)
+#define UART0_IRQ 5u
+
+static volatile uint32_t clock_ms;
+static volatile uint8_t ring[RX_RING];
+static volatile uint8_t ring_head, ring_tail;
+static volatile uint32_t rx_overflow;
+static tiny_serial_rx decoder;
+static tiny_kernel kernel;
+volatile long arm_last_report;
+
+void systick_handler(void) { ++clock_ms; }
+
+void uart0_handler(void) {
+  while (!(UART0_FR & UART_FR_RXFE)) {
+    uint8_t byte = (uint8_t)UART0_DR;
+    uint8_t next = (uint8_t)((ring_head + 1u) % RX_RING);
+    if (next == ring_tail) {
+      ++rx_overflow;
+      continue;
+    }
+    ring[ring_head] = byte;
+    ring_head = next;
+  }
+  UART0_ICR = 0x7F0u;
+}
+
+static uint32_t now_ms(void *ctx) {
+  (void)ctx;
+  return clock_ms; /* a 32-bit load is atomic on the Cortex-M3 */
+}
+
+static void put_byte(uint8_t b) {
+  while (UART0_FR & UART_FR_TXFF) {
+  }
+  UART0_DR = b;
+}
+
+static int uart_send(void *ctx, const uint8_t *frame, uint8_t len) {
+  uint8_t i;
+  (void)ctx;
+  if (len == 0 || len > TINY_FRAME_MAX) return -1;
+  put_byte(TINY_SERIAL_START);
+  put_byte(len);
+  for (i = 0; i < len; ++i) put_byte(frame[i]);
+  put_byte(tiny_serial_checksum(frame, len));
+  return 0;
+}
+
+static int uart_recv(void *ctx, uint8_t *buf, uint8_t cap) {
+  (void)ctx;
+  while (ring_tail != ring_head) {
+    uint8_t byte = ring[ring_tail];
+    uint8_t n;
+    ring_tail = (uint8_t)((ring_tail + 1u) % RX_RING);
+    n = tiny_serial_rx_byte(&decoder, byte);
+    if (n != 0) {
+      memcpy(buf, decoder.buf, n < cap ? n : cap);
+      return n;
+    }
+  }
+  return 0;
+}
+
+static void uart_init(void) {
+  /* Baud divisor = CPU / (16 * baud), fraction in 1/64ths, rounded. */
+  uint32_t div64 = (uint32_t)((4ul * TINY_ARM_CPU_HZ + TINY_ARM_BAUD / 2u) / TINY_ARM_BAUD);
+  SYSCTL_RCGC1 |= 1u; /* UART0 */
+  SYSCTL_RCGC2 |= 1u; /* GPIO A: PA0 = U0Rx, PA1 = U0Tx */
+  GPIOA_AFSEL |= 3u;
+  GPIOA_DEN |= 3u;
+  UART0_CTL = 0;
+  UART0_IBRD = div64 >> 6;
+  UART0_FBRD = div64 & 63u;
+  UART0_LCRH = 0x60u; /* 8 bits, no parity, 1 stop, no FIFOs */
+  UART0_IM = 0x50u;   /* receive and receive-timeout interrupts */
+  UART0_CTL = 0x301u; /* RXE, TXE, UARTEN */
+  NVIC_ISER0 = 1u << UART0_IRQ;
+  tiny_serial_rx_init(&decoder);
+}
+
+void tiny_port_report(const char *event, long value) {
+  (void)event;
+  arm_last_report = value;
+}
+
+long tiny_port_sensor(uint8_t channel) {
+  switch (channel) {
+    case TINY_SENSOR_LIGHT:
+      return TINY_ARM_LIGHT;
+    case TINY_SENSOR_WEIGHT:
+      return TINY_ARM_WEIGHT;
+    default:
+      return 0;
+  }
+}
+
+int main(void) {
+  tiny_hal hal;
+#ifdef TINY_NODE_ID
+  uint16_t id = TINY_NODE_ID;
+#else
+  uint16_t id = app_default_id();
+#endif
+  SYST_RVR = TINY_ARM_CPU_HZ / 1000u - 1u;
+  SYST_CVR = 0;
+  SYST_CSR = 7u; /* core clock, interrupt, enable */
+  uart_init();
+  hal.ctx = 0;
+  hal.send = uart_send;
+  hal.recv = uart_recv;
+  hal.now_ms = now_ms;
+  tiny_init(&kernel, id, &hal);
+  app_setup(&kernel);
+  for (;;) {
+    uint32_t now = now_ms(0);
+    tiny_poll(&kernel, now);
+    app_loop(&kernel, now);
+  }
+}
+
+/* ---- startup ------------------------------------------------------------ */
+extern uint32_t _sidata, _sdata, _edata, _sbss, _ebss, _estack;
+
+void reset_handler(void) {
+  uint32_t *src = &_sidata, *dst = &_sdata;
+  while (dst < &_edata) *dst++ = *src++;
+  for (dst = &_sbss; dst < &_ebss;) *dst++ = 0;
+  (void)main();
+  for (;;) {
+  }
+}
+
+static void default_handler(void) {
+  for (;;) {
+  }
+}
+
+typedef void (*vector)(void);
+/* Cortex-M3 core vectors, then the LM3S6965's IRQs up to UART0 (IRQ 5). */
+__attribute__((section(".vectors"), used)) static const vector vectors[16 + UART0_IRQ + 1] = {
+    (vector)(uintptr_t)&_estack,
+    reset_handler,
+    default_handler, /* NMI */
+    default_handler, /* HardFault */
+    default_handler, /* MemManage */
+    default_handler, /* BusFault */
+    default_handler, /* UsageFault */
+    0,
+    0,
+    0,
+    0,
+    default_handler, /* SVCall */
+    default_handler, /* DebugMon */
+    0,
+    default_handler, /* PendSV */
+    systick_handler,
+    default_handler, /* GPIO A */
+    default_handler, /* GPIO B */
+    default_handler, /* GPIO C */
+    default_handler, /* GPIO D */
+    default_handler, /* GPIO E */
+    uart0_handler,   /* UART0 */
+};

@@ -1,0 +1,95 @@
+/* main() of the ATmega128 port (the Robostix of the seed's PMote, 16 MHz):
+ * runs one device program (linked beside this file) as a tiny node whose
+ * radio is an XBee-like serial radio on UART0 (avr_uart.c).
+ *
+ *  - clock: Timer0 in CTC mode interrupts every millisecond;
+ *  - tiny_port_report: toggles the status LED (PB4 unless TINY_AVR_LED_*
+ *    say otherwise) and keeps the last value in avr_last_report for a
+ *    debugger or simulator to read;
+ *  - tiny_port_sensor: the light sensor is ADC0 (0..1023 scaled to
+ *    0..1000), the weight sensor ADC1 (in grams, 0..1023).
+ *
+ * The node id is the program's app_default_id() unless TINY_NODE_ID is set.
+ */
+#include <avr/interrupt.h>
+#include <avr/io.h>
+
+#include "avr_uart.h"
+#include "tiny_app.h"
+
+#ifndef TINY_AVR_LED_DDR
+#define TINY_AVR_LED_DDR DDRB
+#define TINY_AVR_LED_PORT PORTB
+#define TINY_AVR_LED_BIT PB4
+#endif
+
+static volatile uint32_t clock_ms;
+static tiny_kernel kernel;
+volatile long avr_last_report;
+
+ISR(TIMER0_COMP_vect) { ++clock_ms; }
+
+static uint32_t now_ms(void *ctx) {
+  uint32_t v;
+  uint8_t sreg = SREG;
+  (void)ctx;
+  cli();
+  v = clock_ms;
+  SREG = sreg;
+  return v;
+}
+
+/* Timer0: F_CPU / 64 / 250 = 1 kHz at 16 MHz. */
+static void clock_init(void) {
+  TCCR0 = (1 << WGM01) | (1 << CS02); /* CTC, clk/64 (Timer0's CS0 = 4) */
+  OCR0 = (uint8_t)(F_CPU / 64ul / 1000ul - 1ul);
+  TIMSK |= (1 << OCIE0);
+}
+
+void tiny_port_report(const char *event, long value) {
+  (void)event;
+  avr_last_report = value;
+  TINY_AVR_LED_PORT ^= (uint8_t)(1 << TINY_AVR_LED_BIT);
+}
+
+static uint16_t adc_read(uint8_t channel) {
+  ADMUX = (uint8_t)((1 << REFS0) | (channel & 0x07)); /* AVCC reference */
+  ADCSRA = (1 << ADEN) | (1 << ADSC) | (1 << ADPS2) | (1 << ADPS1) | (1 << ADPS0);
+  while (ADCSRA & (1 << ADSC)) {
+  }
+  return ADC;
+}
+
+long tiny_port_sensor(uint8_t channel) {
+  switch (channel) {
+    case TINY_SENSOR_LIGHT:
+      return (long)adc_read(0) * 1000l / 1023l;
+    case TINY_SENSOR_WEIGHT:
+      return (long)adc_read(1);
+    default:
+      return 0;
+  }
+}
+
+int main(void) {
+  tiny_hal hal;
+#ifdef TINY_NODE_ID
+  uint16_t id = TINY_NODE_ID;
+#else
+  uint16_t id = app_default_id();
+#endif
+  cli();
+  TINY_AVR_LED_DDR |= (uint8_t)(1 << TINY_AVR_LED_BIT);
+  clock_init();
+  avr_uart_init();
+  sei();
+  hal = avr_uart_hal();
+  hal.now_ms = now_ms;
+  tiny_init(&kernel, id, &hal);
+  app_setup(&kernel);
+  for (;;) {
+    uint32_t now = now_ms(0);
+    tiny_poll(&kernel, now);
+    app_loop(&kernel, now);
+  }
+}
