@@ -163,8 +163,11 @@ bool waitUntil(const std::function<bool()>& condition, Clock::time_point deadlin
   return true;
 }
 
-// Waits until the membership has been stable for a moment (or the deadline).
+// Waits for the first other PEIS (discovery answers within milliseconds, but
+// a loaded host may be slower), then until the membership has been stable for
+// a moment; never past the deadline.
 void settle(peis::Kernel& kernel, Clock::time_point deadline) {
+  while (kernel.peers().size() < 2 && Clock::now() < deadline) std::this_thread::sleep_for(5ms);
   auto last = kernel.peers().size();
   auto stableSince = Clock::now();
   while (Clock::now() < deadline && Clock::now() - stableSince < 300ms) {
@@ -299,8 +302,10 @@ int commandTuples(peis::Kernel& kernel, const Args& args) {
   if (args.positional.size() > 1) usageError("tuples takes at most one PATTERN");
   kernel.subscribe(pattern);
   kernel.subscribe(peis::Pattern("kernel.all-keys"));
-  // Done when every reachable PEIS's matching keys (per its kernel.all-keys) are here.
+  // Done when every reachable PEIS's matching keys (per its kernel.all-keys)
+  // are here, and the owner the pattern names (if any) is reachable.
   auto complete = [&] {
+    if (pattern.ownerFilter() && !reachable(kernel, *pattern.ownerFilter())) return false;
     for (const auto& peer : kernel.peers()) {
       if (peer.id == kernel.id() || (pattern.ownerFilter() && *pattern.ownerFilter() != peer.id)) {
         continue;
