@@ -1,3 +1,4 @@
+// A lamp component: one input (mi-brightness) and one actuator (light).
 #include <peis/peis.h>
 
 #include <iostream>
