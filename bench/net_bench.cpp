@@ -368,6 +368,8 @@ struct ScaleResult {
   double secondsToAll = -1;
   double idleCpuPercent = -1;
   double rssKib = -1;
+  double pssKib = -1;      // shared library pages divided among the processes
+  double privateKib = -1;  // pages only this process uses
 };
 
 long procTicks(pid_t pid) {
@@ -385,11 +387,12 @@ long procTicks(pid_t pid) {
   return utime + stime;
 }
 
-long rssKib(pid_t pid) {
-  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+// A "Name:   123 kB" field of a /proc file, in KiB (0 if absent).
+long procKib(pid_t pid, const char* file, const std::string& field) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/" + file);
   std::string line;
-  while (std::getline(status, line)) {
-    if (line.rfind("VmRSS:", 0) == 0) return std::stol(line.substr(6));
+  while (std::getline(in, line)) {
+    if (line.rfind(field, 0) == 0) return std::stol(line.substr(field.size()));
   }
   return 0;
 }
@@ -412,14 +415,20 @@ ScaleResult scale(int n, const std::string& ecology) {
   for (auto& node : nodes) before.push_back(procTicks(node->pid()));
   const auto window = 5s;
   std::this_thread::sleep_for(window);
-  double ticks = 0, rss = 0;
+  double ticks = 0, rss = 0, pss = 0, own = 0;
   for (std::size_t i = 0; i < nodes.size(); ++i) {
-    ticks += static_cast<double>(procTicks(nodes[i]->pid()) - before[i]);
-    rss += static_cast<double>(rssKib(nodes[i]->pid()));
+    const auto pid = nodes[i]->pid();
+    ticks += static_cast<double>(procTicks(pid) - before[i]);
+    rss += static_cast<double>(procKib(pid, "status", "VmRSS:"));
+    pss += static_cast<double>(procKib(pid, "smaps_rollup", "Pss:"));
+    own += static_cast<double>(procKib(pid, "smaps_rollup", "Private_Clean:") +
+                               procKib(pid, "smaps_rollup", "Private_Dirty:"));
   }
   const double hz = static_cast<double>(sysconf(_SC_CLK_TCK));
   result.idleCpuPercent = ticks / hz / 5.0 / n * 100.0;
   result.rssKib = rss / n;
+  result.pssKib = pss / n;
+  result.privateKib = own / n;
   return result;
 }
 
@@ -470,11 +479,11 @@ int runAll(const std::string& what) {
   if (wanted("scale")) {
     std::printf(
         "| scale | N | all N values seen (s) | idle CPU per PEIS (%%) | RSS per PEIS (KiB) "
-        "|\n|---|---|---|---|---|\n");
+        "| PSS (KiB) | private (KiB) |\n|---|---|---|---|---|---|---|\n");
     for (int n : {10, 50, 200}) {
       const auto r = scale(n, ecology + "-scale" + std::to_string(n));
-      std::printf("| processes on one host | %d | %.2f | %.3f | %.0f |\n", n, r.secondsToAll,
-                  r.idleCpuPercent, r.rssKib);
+      std::printf("| processes on one host | %d | %.2f | %.3f | %.0f | %.0f | %.0f |\n", n,
+                  r.secondsToAll, r.idleCpuPercent, r.rssKib, r.pssKib, r.privateKib);
       std::fflush(stdout);
     }
     std::printf("\n");
