@@ -1,11 +1,14 @@
 #!/usr/bin/env bash
-# Fuzzes the wire decoder with libFuzzer for a bounded time.
+# Fuzzes a decoder with libFuzzer for a bounded time.
 #
-#   tests/fuzz/run_fuzz.sh BUILD_DIR
+#   tests/fuzz/run_fuzz.sh BUILD_DIR [wire|tiny]
 #
-# Compiles tests/fuzz/wire_fuzz.cpp with clang++ (-fsanitize=fuzzer,address,
-# undefined) into BUILD_DIR/fuzz/, writes a seed corpus of valid frames with
-# tests/fuzz/write_seeds.cpp, and runs the fuzzer for PEIS_FUZZ_SECONDS
+# wire (default): compiles tests/fuzz/wire_fuzz.cpp with clang++
+# (-fsanitize=fuzzer,address,undefined) into BUILD_DIR/fuzz/ and writes a
+# seed corpus of valid frames with tests/fuzz/write_seeds.cpp. tiny: compiles
+# tiny/fuzz/tiny_decode_fuzz.c (the Tiny PEIS-kernel's radio-frame decoder)
+# into BUILD_DIR/fuzz-tiny/, starting from an empty corpus. Either then runs
+# the fuzzer for PEIS_FUZZ_SECONDS
 # (default 20). Exits non-zero when the fuzzer finds a crash, a leak or a
 # sanitizer error (the input is kept as BUILD_DIR/fuzz/crash-*), and 0 with
 # a note when clang++ or libFuzzer is missing (Debian 12: packages clang and
@@ -13,10 +16,13 @@
 set -euo pipefail
 
 root=$(cd "$(dirname "$0")/../.." && pwd)
-build=${1:?usage: run_fuzz.sh BUILD_DIR}
+build=${1:?usage: run_fuzz.sh BUILD_DIR [wire|tiny]}
+target=${2:-wire}
+case "$target" in wire | tiny) ;; *) echo "unknown fuzz target '$target'" >&2; exit 2 ;; esac
 mkdir -p "$build"
 build=$(cd "$build" && pwd)
 out="$build/fuzz"
+[ "$target" = tiny ] && out="$build/fuzz-tiny"
 seconds=${PEIS_FUZZ_SECONDS:-20}
 
 skip() {
@@ -48,32 +54,38 @@ if ! "$cxx" -fsanitize=fuzzer,address,undefined "$probe" -o "$out/probe" >"$out/
   skip "$cxx cannot link -fsanitize=fuzzer (install libclang-rt-14-dev or your clang's libFuzzer)"
 fi
 
-flags=(-std=c++20 -O1 -g -I "$root/kernel/include" -I "$root/kernel/src")
-sources=("$root/kernel/src/net/wire.cpp" "$root/kernel/src/key.cpp")
-
-echo "==> compiling the wire fuzzer with $cxx"
-"$cxx" "${flags[@]}" -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
-  -fno-omit-frame-pointer "$root/tests/fuzz/wire_fuzz.cpp" "${sources[@]}" -o "$out/wire_fuzz"
-"$cxx" "${flags[@]}" "$root/tests/fuzz/write_seeds.cpp" "${sources[@]}" -o "$out/write_seeds"
-
 rm -rf "$out/seeds" "$out/corpus"
 mkdir -p "$out/seeds" "$out/corpus"
-"$out/write_seeds" "$out/seeds"
+sanitize=(-fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer)
+if [ "$target" = wire ]; then
+  flags=(-std=c++20 -O1 -g -I "$root/kernel/include" -I "$root/kernel/src")
+  sources=("$root/kernel/src/net/wire.cpp" "$root/kernel/src/key.cpp")
+  echo "==> compiling the wire fuzzer with $cxx"
+  "$cxx" "${flags[@]}" "${sanitize[@]}" "$root/tests/fuzz/wire_fuzz.cpp" "${sources[@]}" \
+    -o "$out/fuzzer"
+  "$cxx" "${flags[@]}" "$root/tests/fuzz/write_seeds.cpp" "${sources[@]}" -o "$out/write_seeds"
+  "$out/write_seeds" "$out/seeds"
+else
+  cc=${cxx/clang++/clang}
+  echo "==> compiling the tiny frame fuzzer with $cc"
+  "$cc" -std=c99 -O1 -g -I "$root/tiny/include" "${sanitize[@]}" \
+    "$root/tiny/fuzz/tiny_decode_fuzz.c" "$root/tiny/src/tiny_tuple.c" -o "$out/fuzzer"
+fi
 rm -f "$out"/crash-* "$out"/leak-* "$out"/timeout-* "$out"/oom-*
 
-echo "==> fuzzing wire::decode for ${seconds}s"
+echo "==> fuzzing the $target decoder for ${seconds}s"
 status=0
 # New inputs go to corpus/ (the first directory); the seeds stay as written.
 ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1} UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1} \
-  "$out/wire_fuzz" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=4096 \
+  "$out/fuzzer" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 -max_len=4096 \
   -print_final_stats=1 -artifact_prefix="$out/" "$out/corpus" "$out/seeds" \
   >"$out/fuzz.log" 2>&1 || status=$?
 tail -n 25 "$out/fuzz.log"
 if [ "$status" -ne 0 ]; then
-  echo "wire fuzzer failed (exit $status); full log: $out/fuzz.log" >&2
+  echo "$target fuzzer failed (exit $status); full log: $out/fuzz.log" >&2
   for artifact in "$out"/crash-* "$out"/leak-* "$out"/timeout-* "$out"/oom-*; do
-    [ -e "$artifact" ] && echo "reproduce with: $out/wire_fuzz $artifact" >&2
+    [ -e "$artifact" ] && echo "reproduce with: $out/fuzzer $artifact" >&2
   done
   exit 1
 fi
-echo "wire fuzzer: no crash in ${seconds}s"
+echo "$target fuzzer: no crash in ${seconds}s"

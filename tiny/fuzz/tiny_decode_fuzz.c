@@ -1,4 +1,5 @@
-/* libFuzzer target for the tiny frame decoder (not yet wired into CTest):
+/* libFuzzer target for the tiny frame decoder (run by CTest as fault:tiny-fuzz,
+ * through tests/fuzz/run_fuzz.sh BUILD_DIR tiny); by hand:
  *
  *   clang -std=c99 -g -fsanitize=fuzzer,address,undefined -I../include \
  *     tiny_decode_fuzz.c ../src/tiny_tuple.c -o tiny_decode_fuzz && ./tiny_decode_fuzz
