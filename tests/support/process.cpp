@@ -17,6 +17,8 @@
 #include <stdexcept>
 #include <thread>
 
+#include "support/wait_for.h"
+
 extern char** environ;
 
 namespace peis::test {
@@ -138,11 +140,7 @@ void Process::kill(int signal) {
 }
 
 std::optional<int> Process::wait(std::chrono::milliseconds deadline) {
-  const auto until = std::chrono::steady_clock::now() + deadline;
-  while (!reap(false)) {
-    if (std::chrono::steady_clock::now() >= until) return std::nullopt;
-    std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  }
+  if (!waitFor([&] { return reap(false); }, deadline)) return std::nullopt;
   return status_;
 }
 
