@@ -60,7 +60,9 @@ std::vector<std::string> cliArgs(const std::string& ecology, std::vector<std::st
 std::unique_ptr<Process> startNode(const std::string& ecology,
                                    std::vector<std::string> flags = {}) {
   flags.insert(flags.begin(), "node");
-  return std::make_unique<Process>(cliArgs(ecology, std::move(flags)));
+  // The tests read the nodes' log lines, whatever PEIS_LOG the caller has.
+  return std::make_unique<Process>(cliArgs(ecology, std::move(flags)),
+                                   Process::Environment{{"PEIS_LOG", "info"}});
 }
 
 // Waits for a node's start line; fails the test if it never comes.
