@@ -46,6 +46,29 @@ void tiny_serial_rx_init(tiny_serial_rx *rx);
  * good frame, now in rx->buf until the next call; 0 otherwise. */
 uint8_t tiny_serial_rx_byte(tiny_serial_rx *rx, uint8_t byte);
 
+/* Writes frame with its framing byte by byte through put (a port's UART
+ * transmit). Returns 0, or -1 if len is not 1..TINY_FRAME_MAX. */
+int tiny_serial_send(void (*put)(uint8_t byte), const uint8_t *frame, uint8_t len);
+
+/* A receive ring filled by a UART interrupt: size is a power of two (2..256),
+ * the interrupt writes at head, the main loop reads at tail. */
+typedef struct tiny_serial_ring {
+  volatile uint8_t *bytes;
+  uint8_t mask; /* size - 1 */
+  volatile uint8_t head;
+  volatile uint8_t tail;
+  uint16_t overruns; /* bytes lost because the ring was full */
+} tiny_serial_ring;
+
+/* Interrupt side: stores one received byte (counted and dropped when full). */
+void tiny_serial_ring_put(tiny_serial_ring *ring, uint8_t byte);
+
+/* Main-loop side: feeds the ring's bytes to rx until a whole frame is
+ * decoded; copies at most cap bytes of it to buf and returns its length
+ * (which may exceed cap: the kernel then drops and counts it), or 0. */
+uint8_t tiny_serial_ring_recv(tiny_serial_ring *ring, tiny_serial_rx *rx, uint8_t *buf,
+                              uint8_t cap);
+
 #ifdef __cplusplus
 }
 #endif

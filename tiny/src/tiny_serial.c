@@ -54,3 +54,38 @@ uint8_t tiny_serial_rx_byte(tiny_serial_rx *rx, uint8_t byte) {
       return 0;
   }
 }
+
+int tiny_serial_send(void (*put)(uint8_t byte), const uint8_t *frame, uint8_t len) {
+  uint8_t i;
+  if (len == 0 || len > TINY_FRAME_MAX) return -1;
+  put(TINY_SERIAL_START);
+  put(len);
+  for (i = 0; i < len; ++i) put(frame[i]);
+  put(tiny_serial_checksum(frame, len));
+  return 0;
+}
+
+void tiny_serial_ring_put(tiny_serial_ring *ring, uint8_t byte) {
+  uint8_t next = (uint8_t)((ring->head + 1u) & ring->mask);
+  if (next == ring->tail) {
+    ++ring->overruns;
+    return;
+  }
+  ring->bytes[ring->head] = byte;
+  ring->head = next;
+}
+
+uint8_t tiny_serial_ring_recv(tiny_serial_ring *ring, tiny_serial_rx *rx, uint8_t *buf,
+                              uint8_t cap) {
+  while (ring->tail != ring->head) {
+    uint8_t byte = ring->bytes[ring->tail];
+    uint8_t n;
+    ring->tail = (uint8_t)((ring->tail + 1u) & ring->mask);
+    n = tiny_serial_rx_byte(rx, byte);
+    if (n != 0) {
+      memcpy(buf, rx->buf, n < cap ? n : cap);
+      return n;
+    }
+  }
+  return 0;
+}

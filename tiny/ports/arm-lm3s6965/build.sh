@@ -20,7 +20,6 @@ RAM_BUDGET=4096    # the seed's 4 KB of RAM (the chip has 64 KB)
 STACK_RESERVE=${TINY_STACK_RESERVE:-512}
 DEFS=${TINY_ARM_DEFS:-}
 
-mkdir -p "$OUT_DIR"
 CFLAGS=(-std=c99 -Wall -Wextra -Wpedantic -Werror -Os -mcpu=cortex-m3 -mthumb
   -ffunction-sections -fdata-sections -I"$TINY/include" -I"$HERE")
 # shellcheck disable=SC2206
@@ -29,32 +28,9 @@ LDFLAGS=(-mcpu=cortex-m3 -mthumb -nostartfiles --specs=nano.specs --specs=nosys.
   -T "$HERE/lm3s6965.ld" -Wl,--gc-sections -Wl,--defsym=TINY_FLASH_BUDGET=$FLASH_BUDGET
   -Wl,--defsym=TINY_RAM_BUDGET=$RAM_BUDGET -Wl,--defsym=TINY_STACK_RESERVE=$STACK_RESERVE)
 
-COMMON=("$TINY/src/tiny_tuple.c" "$TINY/src/tiny_kernel.c" "$TINY/src/tiny_app.c"
+SOURCES=("$TINY/src/tiny_tuple.c" "$TINY/src/tiny_kernel.c" "$TINY/src/tiny_app.c"
   "$TINY/src/tiny_serial.c" "$HERE/main.c")
-objs=()
-for src in "${COMMON[@]}"; do
-  obj="$OUT_DIR/$(basename "${src%.c}").o"
-  "$CC" "${CFLAGS[@]}" -c "$src" -o "$obj"
-  objs+=("$obj")
-done
 
-status=0
-for app in lamp blind plant parcel; do
-  "$CC" "${CFLAGS[@]}" -c "$TINY/apps/$app.c" -o "$OUT_DIR/app-$app.o"
-  elf="$OUT_DIR/$app.elf"
-  if ! "$CC" "${LDFLAGS[@]}" -o "$elf" "$OUT_DIR/app-$app.o" "${objs[@]}"; then
-    echo "error: $TARGET $app does not link within the budget" >&2
-    status=1
-    continue
-  fi
-  read -r text data bss < <("$SIZE" -A "$elf" |
-    awk '$1==".text"||$1==".ARM.exidx"{t+=$2} $1==".data"{d=$2} $1==".bss"{b=$2} END{print t+0, d+0, b+0}')
-  flash=$((text + data))
-  ram=$((data + bss))
-  echo "$TARGET $app flash $flash ram $ram"
-  if [ "$flash" -gt "$FLASH_BUDGET" ] || [ $((ram + STACK_RESERVE)) -gt "$RAM_BUDGET" ]; then
-    echo "error: $TARGET $app over budget ($FLASH_BUDGET flash, $RAM_BUDGET RAM with a $STACK_RESERVE-byte stack reserve)" >&2
-    status=1
-  fi
-done
-exit $status
+# shellcheck source=../build_programs.sh
+source "$HERE/../build_programs.sh"
+build_programs

@@ -13,7 +13,6 @@
  * Startup (vector table, .data copy, .bss zeroing) is in this file too.
  */
 #include <stdint.h>
-#include <string.h>
 
 #include "tiny_app.h"
 #include "tiny_serial.h"
@@ -54,9 +53,8 @@
 #define UART0_IRQ 5u
 
 static volatile uint32_t clock_ms;
-static volatile uint8_t ring[RX_RING];
-static volatile uint8_t ring_head, ring_tail;
-static volatile uint32_t rx_overflow;
+static volatile uint8_t ring_bytes[RX_RING];
+static tiny_serial_ring ring = {ring_bytes, RX_RING - 1u, 0, 0, 0};
 static tiny_serial_rx decoder;
 static tiny_kernel kernel;
 volatile long arm_last_report;
@@ -65,14 +63,7 @@ void systick_handler(void) { ++clock_ms; }
 
 void uart0_handler(void) {
   while (!(UART0_FR & UART_FR_RXFE)) {
-    uint8_t byte = (uint8_t)UART0_DR;
-    uint8_t next = (uint8_t)((ring_head + 1u) % RX_RING);
-    if (next == ring_tail) {
-      ++rx_overflow;
-      continue;
-    }
-    ring[ring_head] = byte;
-    ring_head = next;
+    tiny_serial_ring_put(&ring, (uint8_t)UART0_DR);
   }
   UART0_ICR = 0x7F0u;
 }
@@ -89,29 +80,13 @@ static void put_byte(uint8_t b) {
 }
 
 static int uart_send(void *ctx, const uint8_t *frame, uint8_t len) {
-  uint8_t i;
   (void)ctx;
-  if (len == 0 || len > TINY_FRAME_MAX) return -1;
-  put_byte(TINY_SERIAL_START);
-  put_byte(len);
-  for (i = 0; i < len; ++i) put_byte(frame[i]);
-  put_byte(tiny_serial_checksum(frame, len));
-  return 0;
+  return tiny_serial_send(put_byte, frame, len);
 }
 
 static int uart_recv(void *ctx, uint8_t *buf, uint8_t cap) {
   (void)ctx;
-  while (ring_tail != ring_head) {
-    uint8_t byte = ring[ring_tail];
-    uint8_t n;
-    ring_tail = (uint8_t)((ring_tail + 1u) % RX_RING);
-    n = tiny_serial_rx_byte(&decoder, byte);
-    if (n != 0) {
-      memcpy(buf, decoder.buf, n < cap ? n : cap);
-      return n;
-    }
-  }
-  return 0;
+  return tiny_serial_ring_recv(&ring, &decoder, buf, cap);
 }
 
 static void uart_init(void) {

@@ -26,7 +26,7 @@ void avr_uart_init(void);
 /* The radio HAL on UART0 (send/recv; now_ms is filled in by main.c). */
 tiny_hal avr_uart_hal(void);
 /* Counters of the driver and of the serial decoder. */
-const avr_uart_stats *avr_uart_get_stats(void);
+avr_uart_stats avr_uart_get_stats(void);
 const tiny_serial_rx *avr_uart_decoder(void);
 
 #endif /* TINY_AVR_UART_H */

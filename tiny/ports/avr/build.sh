@@ -24,7 +24,6 @@ STACK_RESERVE=${TINY_STACK_RESERVE:-512}
 # serves few remote tuples (the lamp and the blind each cache one value).
 DEFS=${TINY_AVR_DEFS:--DTINY_MAX_TUPLES=10 -DTINY_MAX_CACHE=1 -DTINY_MAX_SUBS=2 -DTINY_MAX_SUBSCRIBERS=3 -DTINY_MAX_NEIGHBORS=3}
 
-mkdir -p "$OUT_DIR"
 CFLAGS=(-std=c99 -Wall -Wextra -Wpedantic -Werror -Os -mmcu=$MCU -DF_CPU=16000000UL
   -ffunction-sections -fdata-sections -I"$TINY/include" -I"$HERE")
 # shellcheck disable=SC2206
@@ -32,33 +31,11 @@ CFLAGS+=($DEFS)
 LDFLAGS=(-mmcu=$MCU -Wl,--gc-sections -Wl,--defsym=TINY_FLASH_BUDGET=$FLASH_BUDGET
   -Wl,--defsym=TINY_RAM_BUDGET=$RAM_BUDGET -Wl,--defsym=TINY_STACK_RESERVE=$STACK_RESERVE)
 
-COMMON=("$TINY/src/tiny_tuple.c" "$TINY/src/tiny_kernel.c" "$TINY/src/tiny_app.c"
+SOURCES=("$TINY/src/tiny_tuple.c" "$TINY/src/tiny_kernel.c" "$TINY/src/tiny_app.c"
   "$TINY/src/tiny_serial.c" "$HERE/avr_uart.c" "$HERE/main.c")
-objs=()
-for src in "${COMMON[@]}"; do
-  obj="$OUT_DIR/$(basename "${src%.c}").o"
-  "$CC" "${CFLAGS[@]}" -c "$src" -o "$obj"
-  objs+=("$obj")
-done
+LINK_EXTRA=("$HERE/budget.ld")
+TARGET=$MCU
 
-status=0
-for app in lamp blind plant parcel; do
-  "$CC" "${CFLAGS[@]}" -c "$TINY/apps/$app.c" -o "$OUT_DIR/app-$app.o"
-  elf="$OUT_DIR/$app.elf"
-  if ! "$CC" "${LDFLAGS[@]}" -o "$elf" "$OUT_DIR/app-$app.o" "${objs[@]}" "$HERE/budget.ld"; then
-    echo "error: $MCU $app does not link within the budget" >&2
-    status=1
-    continue
-  fi
-  # avr-size -A: one line per section with its size in bytes.
-  read -r text data bss < <("$SIZE" -A "$elf" |
-    awk '$1==".text"{t=$2} $1==".data"{d=$2} $1==".bss"{b=$2} END{print t+0, d+0, b+0}')
-  flash=$((text + data))
-  ram=$((data + bss))
-  echo "$MCU $app flash $flash ram $ram"
-  if [ "$flash" -gt "$FLASH_BUDGET" ] || [ $((ram + STACK_RESERVE)) -gt "$RAM_BUDGET" ]; then
-    echo "error: $MCU $app over budget ($FLASH_BUDGET flash, $RAM_BUDGET RAM with a $STACK_RESERVE-byte stack reserve)" >&2
-    status=1
-  fi
-done
-exit $status
+# shellcheck source=../build_programs.sh
+source "$HERE/../build_programs.sh"
+build_programs
