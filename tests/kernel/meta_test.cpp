@@ -15,6 +15,7 @@
 #include "peis/tuple.h"
 #include "peis/types.h"
 #include "support/error_matchers.h"
+#include "support/tuples.h"
 #include "support/wait_for.h"
 #include "tuple_space.h"
 
@@ -35,18 +36,7 @@ constexpr peis::PeisId kSelf = 7;
 
 using peis::test::HasCode;
 
-Tuple remoteTuple(peis::PeisId owner, std::string key, std::string data, std::uint64_t seqno,
-                  std::string mimetype = peis::kDefaultMimetype) {
-  Tuple tuple;
-  tuple.owner = owner;
-  tuple.creator = owner;
-  tuple.key = std::move(key);
-  tuple.data = std::move(data);
-  tuple.mimetype = std::move(mimetype);
-  tuple.ts_write = Timestamp(std::chrono::seconds(1'600'000'000));
-  tuple.seqno = seqno;
-  return tuple;
-}
+using peis::test::remoteTuple;
 
 Tuple remoteMeta(peis::PeisId owner, std::string key, std::string pointsTo, std::uint64_t seqno) {
   return remoteTuple(owner, std::move(key), std::move(pointsTo), seqno, peis::kMetaMimetype);

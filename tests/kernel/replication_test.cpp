@@ -16,6 +16,7 @@
 #include "peis/error.h"
 #include "peis/pattern.h"
 #include "peis/tuple.h"
+#include "support/tuples.h"
 #include "support/wait_for.h"
 #include "tuple_space.h"
 
@@ -87,16 +88,7 @@ std::multiset<std::string> updatedKeys(const std::vector<Replication::Outgoing>&
   return keys;
 }
 
-Tuple remoteTuple(PeisId owner, std::string key, std::string data, std::uint64_t seqno) {
-  Tuple t;
-  t.owner = owner;
-  t.creator = owner;
-  t.key = std::move(key);
-  t.data = std::move(data);
-  t.seqno = seqno;
-  t.ts_write = peis::Timestamp(std::chrono::seconds(1'700'000'000));
-  return t;
-}
+using peis::test::remoteTuple;
 
 wire::Write writeMsg(std::uint64_t request, wire::WriteOp op, std::string key, std::string data,
                      std::optional<std::uint64_t> ifSeqno = std::nullopt, PeisId owner = kSelf) {

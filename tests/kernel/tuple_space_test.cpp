@@ -18,6 +18,7 @@
 #include "peis/tuple.h"
 #include "peis/types.h"
 #include "support/error_matchers.h"
+#include "support/tuples.h"
 #include "support/wait_for.h"
 
 using namespace std::chrono_literals;
@@ -36,17 +37,7 @@ constexpr peis::PeisId kSelf = 7;
 
 using peis::test::HasCode;
 
-// A tuple as another owner would have stamped it.
-Tuple remoteTuple(peis::PeisId owner, std::string key, std::string data, std::uint64_t seqno) {
-  Tuple tuple;
-  tuple.owner = owner;
-  tuple.creator = owner;
-  tuple.key = std::move(key);
-  tuple.data = std::move(data);
-  tuple.ts_write = Timestamp(std::chrono::seconds(1'600'000'000));
-  tuple.seqno = seqno;
-  return tuple;
-}
+using peis::test::remoteTuple;
 
 // One delivered event, flattened for comparison.
 struct Seen {
