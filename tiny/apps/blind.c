@@ -1,5 +1,6 @@
 /* Blind (tiny PEIS 4): subscribed to key 43 (TiltValue) of PEIS 3 (the
- * plant); 0 closes the blind, anything else opens it that far. */
+ * plant); 0 closes the blind, anything else opens it that far. The
+ * position is published as its own tuple 46 (BlindPosition). */
 #include "tiny_app.h"
 
 #define BLIND_ID 4
@@ -7,9 +8,16 @@
 
 uint16_t app_default_id(void) { return BLIND_ID; }
 
+/* Tells the ecology where the blind is now (key 46, BlindPosition). */
+static void publish_position(tiny_kernel *k, long position) {
+  char text[12];
+  tiny_key key = tiny_key1(TINY_KEY_BLIND_POSITION);
+  uint8_t n = tiny_format_long(position, text, sizeof text);
+  (void)tiny_set(k, &key, text, n);
+}
+
 static void on_tilt(tiny_kernel *k, const tiny_tuple *t, void *user) {
   long tilt;
-  (void)k;
   (void)user;
   if (tiny_parse_long(tiny_tuple_data(t), t->data_len, &tilt) != 0) {
     tiny_port_report("blind bad-value", (long)t->data_len);
@@ -20,6 +28,7 @@ static void on_tilt(tiny_kernel *k, const tiny_tuple *t, void *user) {
   } else {
     tiny_port_report("blind open", tilt);
   }
+  publish_position(k, tilt);
 }
 
 void app_setup(tiny_kernel *k) {

@@ -1,6 +1,7 @@
 /* Lamp (tiny PEIS 7): subscribed to key 42 (LightValue) of PEIS 6890 (the
  * plan executor on Astrid, a full PEIS reached through the bridge); sets
- * its dimmer to the level received and reports it. */
+ * its dimmer to the level received, reports it and publishes it as its
+ * own tuple 45 (LampLevel). */
 #include "tiny_app.h"
 
 #define LAMP_ID 7
@@ -8,9 +9,16 @@
 
 uint16_t app_default_id(void) { return LAMP_ID; }
 
+/* Tells the ecology what the dimmer does now (key 45, LampLevel). */
+static void publish_level(tiny_kernel *k, long level) {
+  char text[12];
+  tiny_key key = tiny_key1(TINY_KEY_LAMP_LEVEL);
+  uint8_t n = tiny_format_long(level, text, sizeof text);
+  (void)tiny_set(k, &key, text, n);
+}
+
 static void on_light(tiny_kernel *k, const tiny_tuple *t, void *user) {
   long level;
-  (void)k;
   (void)user;
   if (tiny_parse_long(tiny_tuple_data(t), t->data_len, &level) != 0) {
     tiny_port_report("lamp bad-value", (long)t->data_len);
@@ -19,6 +27,7 @@ static void on_light(tiny_kernel *k, const tiny_tuple *t, void *user) {
   if (level < 0) level = 0;
   if (level > 100) level = 100;
   tiny_port_report("lamp light", level); /* drive the dimmer here */
+  publish_level(k, level);
 }
 
 void app_setup(tiny_kernel *k) {

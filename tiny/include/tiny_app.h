@@ -18,9 +18,11 @@ extern "C" {
 #endif
 
 /* Key indexes of the seed's registry (tiny-peis-kernel.txt section V). */
-#define TINY_KEY_LIGHT_VALUE 42 /* LightValue */
-#define TINY_KEY_TILT_VALUE 43  /* TiltValue */
-#define TINY_KEY_WEIGHT 44      /* Weight (the parcel) */
+#define TINY_KEY_LIGHT_VALUE 42    /* LightValue */
+#define TINY_KEY_TILT_VALUE 43     /* TiltValue */
+#define TINY_KEY_WEIGHT 44         /* Weight (the parcel) */
+#define TINY_KEY_LAMP_LEVEL 45     /* LampLevel: the level the lamp has set */
+#define TINY_KEY_BLIND_POSITION 46 /* BlindPosition: 0 closed .. 100 open */
 
 /* Sensor and actuator channels a port may offer. */
 #define TINY_SENSOR_LIGHT 0

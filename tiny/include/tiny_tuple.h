@@ -96,7 +96,13 @@ typedef enum tiny_frame_type {
   /* payload: as TINY_FRAME_SUBSCRIBE. */
   TINY_FRAME_UNSUBSCRIBE = 3,
   /* payload: flags u8, tuple count u8, uptime ms u32 (6 bytes). */
-  TINY_FRAME_BEACON = 4
+  TINY_FRAME_BEACON = 4,
+  /* payload: one encoded tuple, as TINY_FRAME_TUPLE: a request to the
+   * tuple's owner (the frame's dst) to set its own tuple to this key and
+   * data; creator names the writer. The owner stamps its own seqno and
+   * ts_write and sends the result to its subscribers as usual (that tuple
+   * frame is the acknowledgement). */
+  TINY_FRAME_WRITE = 5
 } tiny_frame_type;
 
 #define TINY_SUB_PREFIX 0x01u /* the key is a prefix: matches longer keys */
@@ -167,6 +173,8 @@ typedef struct tiny_stats {
   uint32_t cache_full;       /* wanted remote tuple, no room in the cache */
   uint32_t subscribers_full; /* new subscriber, no room in the table */
   uint32_t neighbors_full;   /* new neighbour, no room in the table */
+  uint32_t writes_accepted;  /* write requests applied to own tuples */
+  uint32_t writes_refused;   /* write requests for another owner, or no free slot */
 } tiny_stats;
 
 /* Decode results; TINY_DECODE_OK is 0, the others name the drop reason. */
@@ -248,6 +256,8 @@ tiny_decode_result tiny_tuple_decode(const uint8_t *buf, size_t len, tiny_tuple 
  * least TINY_FRAME_MAX bytes). Return the frame length, or 0 on bad input. */
 size_t tiny_encode_tuple_frame(uint8_t *buf, uint16_t src, uint16_t dst, uint16_t seq,
                                const tiny_tuple *t);
+/* A write request to t->owner (dst is t->owner). */
+size_t tiny_encode_write_frame(uint8_t *buf, uint16_t src, uint16_t seq, const tiny_tuple *t);
 size_t tiny_encode_sub_frame(uint8_t *buf, uint8_t type, uint16_t src, uint16_t dst, uint16_t seq,
                              uint16_t owner, uint8_t flags, const tiny_key *key);
 size_t tiny_encode_beacon_frame(uint8_t *buf, uint16_t src, uint16_t seq, uint8_t flags,

@@ -137,12 +137,20 @@ unsigned tiny_neighbor_count(const tiny_kernel *k) {
 
 const tiny_stats *tiny_get_stats(const tiny_kernel *k) { return &k->stats; }
 
+static int set_own(tiny_kernel *k, const tiny_key *key, const void *data, uint8_t len,
+                   uint32_t ts_user, uint32_t expire_ms, uint16_t creator);
+
 int tiny_set(tiny_kernel *k, const tiny_key *key, const void *data, uint8_t len) {
   return tiny_set_ex(k, key, data, len, 0, 0);
 }
 
 int tiny_set_ex(tiny_kernel *k, const tiny_key *key, const void *data, uint8_t len,
                 uint32_t ts_user, uint32_t expire_ms) {
+  return set_own(k, key, data, len, ts_user, expire_ms, k->id);
+}
+
+static int set_own(tiny_kernel *k, const tiny_key *key, const void *data, uint8_t len,
+                   uint32_t ts_user, uint32_t expire_ms, uint16_t creator) {
   uint8_t i;
   tiny_own_entry *slot = NULL;
   uint32_t seqno = 1;
@@ -164,7 +172,7 @@ int tiny_set_ex(tiny_kernel *k, const tiny_key *key, const void *data, uint8_t l
   if (tiny_tuple_set_key_data(&slot->t, key, data, len) != 0) return TINY_ERR_ARG;
   slot->used = 1;
   slot->t.owner = k->id;
-  slot->t.creator = k->id;
+  slot->t.creator = creator;
   slot->t.seqno = seqno;
   slot->t.ts_write = now_of(k);
   slot->t.ts_user = ts_user;
@@ -246,8 +254,7 @@ static void on_tuple(tiny_kernel *k, const tiny_frame *f) {
   tiny_cache_entry *slot = NULL;
   const tiny_tuple *t = &f->tuple;
   tiny_key key;
-  if (t->owner == k->id) {
-    /* Our own tuple echoed back (writes to tiny tuples by others: later). */
+  if (t->owner == k->id) { /* our own tuple, echoed back by someone */
     ++k->stats.not_for_me;
     return;
   }
@@ -280,6 +287,24 @@ static void on_tuple(tiny_kernel *k, const tiny_frame *f) {
   slot->t = *t;
   ++k->stats.tuples_accepted;
   notify(k, &slot->t);
+}
+
+/* A write request to one of our tuples: the owner applies it as its own
+ * write (new seqno, creator = the writer) and publishes the result. */
+static void on_write(tiny_kernel *k, const tiny_frame *f) {
+  const tiny_tuple *t = &f->tuple;
+  tiny_key key;
+  if (t->owner != k->id) {
+    ++k->stats.writes_refused;
+    return;
+  }
+  tiny_tuple_key(t, &key);
+  if (set_own(k, &key, tiny_tuple_data(t), t->data_len, t->ts_user, t->ts_expire, t->creator) ==
+      TINY_OK) {
+    ++k->stats.writes_accepted;
+  } else {
+    ++k->stats.writes_refused;
+  }
 }
 
 static void on_subscribe(tiny_kernel *k, const tiny_frame *f) {
@@ -377,6 +402,9 @@ static void handle_frame(tiny_kernel *k, const uint8_t *buf, int n) {
       break;
     case TINY_FRAME_BEACON:
       on_beacon(k, &f);
+      break;
+    case TINY_FRAME_WRITE:
+      on_write(k, &f);
       break;
     default:
       break; /* tiny_decode_frame accepts no other type */

@@ -137,6 +137,12 @@ size_t tiny_encode_tuple_frame(uint8_t *buf, uint16_t src, uint16_t dst, uint16_
   return TINY_FRAME_HEADER_SIZE + n;
 }
 
+size_t tiny_encode_write_frame(uint8_t *buf, uint16_t src, uint16_t seq, const tiny_tuple *t) {
+  size_t n = tiny_encode_tuple_frame(buf, src, t->owner, seq, t);
+  if (n != 0) buf[TINY_FOFF_TYPE] = TINY_FRAME_WRITE;
+  return n;
+}
+
 size_t tiny_encode_sub_frame(uint8_t *buf, uint8_t type, uint16_t src, uint16_t dst, uint16_t seq,
                              uint16_t owner, uint8_t flags, const tiny_key *key) {
   uint8_t i;
@@ -178,6 +184,7 @@ static tiny_decode_result decode(const uint8_t *buf, size_t len, tiny_frame *out
   plen = len - TINY_FRAME_HEADER_SIZE;
   switch (out->type) {
     case TINY_FRAME_TUPLE:
+    case TINY_FRAME_WRITE:
       if (out->src == TINY_ID_NONE || out->src == TINY_ID_BROADCAST) return TINY_DECODE_BAD_SRC;
       return tiny_tuple_decode(p, plen, &out->tuple);
     case TINY_FRAME_SUBSCRIBE:
