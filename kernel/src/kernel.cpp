@@ -118,6 +118,7 @@ struct Kernel::Impl {
   };
   std::map<std::uint64_t, PendingWrite> pendingWrites;
   std::uint64_t nextRequest = 1;
+  WriteGate writeGate;  // guarded by mu
   asio::steady_timer leaseTimer{io};
 
   std::mutex timersMu;
@@ -358,6 +359,33 @@ struct Kernel::Impl {
     afterMutation();
   }
 
+  // Asks the write gate about a remote set of an own tuple (outside the
+  // lock); applies or refuses it now or when the gate decides.
+  void holdWrite(const WriteGate& gate, PeisId source, wire::Write&& write) {
+    auto held = std::make_shared<wire::Write>(std::move(write));
+    auto decided = std::make_shared<std::atomic<bool>>(false);
+    WriteDecision decide = [this, source, held, decided](const std::optional<Error>& refusal) {
+      if (decided->exchange(true)) return;
+      asio::post(io, [this, source, held, refusal] {
+        std::lock_guard lock(mu);
+        if (refusal) {
+          replication.refuseWrite(source, *held, *refusal);
+        } else {
+          replication.onWrite(source, *held);
+        }
+        afterMutation();
+      });
+    };
+    bool holding = false;
+    try {
+      holding = gate && gate(held->tuple, source, decide);
+    } catch (const std::exception& e) {
+      decide(Error(ErrorCode::Refused, std::string("write gate failed: ") + e.what()));
+      return;
+    }
+    if (!holding) decide(std::nullopt);
+  }
+
   void onPeerDown(PeisId peer) {
     {
       std::lock_guard lock(mu);
@@ -382,6 +410,7 @@ struct Kernel::Impl {
   // lock; write results complete outside it.
   void onMessages(std::vector<wire::RoutedMessage>&& messages) {
     std::vector<std::pair<PeisId, wire::WriteResult>> results;
+    std::vector<std::pair<PeisId, wire::Write>> gated;
     {
       std::lock_guard lock(mu);
       for (auto& message : messages) {
@@ -405,12 +434,24 @@ struct Kernel::Impl {
               } else if constexpr (std::is_same_v<T, wire::TupleDeleted>) {
                 replication.onDeleted(source, body);
               } else if constexpr (std::is_same_v<T, wire::Write>) {
-                replication.onWrite(source, body);
+                if (writeGate && body.op == wire::WriteOp::Set && body.tuple.owner == id) {
+                  gated.emplace_back(source, std::move(body));
+                } else {
+                  replication.onWrite(source, body);
+                }
               }
             },
             std::move(message.body));
       }
       afterMutation();
+    }
+    if (!gated.empty()) {
+      WriteGate gate;
+      {
+        std::lock_guard lock(mu);
+        gate = writeGate;
+      }
+      for (auto& [source, write] : gated) holdWrite(gate, source, std::move(write));
     }
     for (auto& [source, result] : results) {
       auto pending = pendingWrites.find(result.request);
@@ -744,6 +785,11 @@ bool Kernel::erase(PeisId owner, std::string_view key) {
            impl_->remoteWrite(wire::WriteOp::Erase, owner, key, "", std::nullopt, {},
                               std::move(done));
          }) != 0;
+}
+
+void Kernel::setWriteGate(WriteGate gate) {
+  std::lock_guard lock(impl_->mu);
+  impl_->writeGate = std::move(gate);
 }
 
 SubscriptionHandle Kernel::subscribe(const Pattern& pattern) {

@@ -92,6 +92,14 @@ wire::WriteResult Replication::onWrite(PeisId source, const wire::Write& write) 
   return result;
 }
 
+void Replication::refuseWrite(PeisId source, const wire::Write& write, const Error& error) {
+  wire::WriteResult result;
+  result.request = write.request;
+  result.status = static_cast<std::uint8_t>(static_cast<int>(error.code()) + 1);
+  result.message = error.what();
+  push(Outgoing{source, nullptr, result});
+}
+
 bool Replication::expireLeases(SteadyTime now) {
   bool dropped = false;
   for (auto it = remote_.begin(); it != remote_.end();) {

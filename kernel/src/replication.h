@@ -43,6 +43,8 @@ class Replication {
   void onUnsubscribe(PeisId subscriber, std::uint64_t subscription);
   // Applies a remote write; returns the result to send back.
   wire::WriteResult onWrite(PeisId source, const wire::Write& write);
+  // Answers a remote write with an error instead of applying it.
+  void refuseWrite(PeisId source, const wire::Write& write, const Error& error);
   // Drops subscriptions whose lease ran out; true if any was dropped.
   bool expireLeases(SteadyTime now);
   std::vector<PeisId> subscribers() const;

@@ -795,3 +795,68 @@ TEST_CASE("an id collision makes the later PEIS re-pick its id", "[integration][
   CHECK(first->running());
   CHECK(second->running());
 }
+
+// (l) A write gate holds remote sets of own tuples until it decides: the
+// writer's set returns only after an accept, and fails with the gate's
+// error after a refusal (the proxy of a tiny node uses this).
+TEST_CASE("a write gate holds a remote set until it accepts or refuses it", "[integration]") {
+  const auto ecology = uniqueEcology("gate");
+  peis::Kernel owner(kernelOptions(ecology, "owner"));
+  peis::Kernel writer(kernelOptions(ecology, "writer"));
+  std::mutex mu;
+  std::vector<std::pair<std::string, peis::WriteDecision>> held;
+  owner.setWriteGate([&](const peis::Tuple& t, PeisId from, const peis::WriteDecision& decide) {
+    if (t.key == "free") return false;
+    CHECK(from == writer.id());
+    std::lock_guard lock(mu);
+    held.emplace_back(t.key + "=" + t.data, decide);
+    return true;
+  });
+  REQUIRE_WAIT([&] { return hasPeer(writer, owner.id()); }, kDeadline);
+  auto heldCount = [&] {
+    std::lock_guard lock(mu);
+    return held.size();
+  };
+
+  // Not gated: applied at once.
+  CHECK(writer.set(owner.id(), "free", "1").data == "1");
+
+  std::atomic<int> accepted{-1};
+  std::thread first([&] {
+    try {
+      accepted = static_cast<int>(writer.set(owner.id(), "level", "70").seqno);
+    } catch (const peis::Error&) {
+      accepted = 0;
+    }
+  });
+  REQUIRE_WAIT([&] { return heldCount() == 1; }, kDeadline);
+  CHECK(!owner.get("level").has_value());  // held, not applied
+  CHECK(accepted == -1);                   // the writer still waits
+  {
+    std::lock_guard lock(mu);
+    CHECK(held[0].first == "level=70");
+    held[0].second(std::nullopt);
+    held[0].second(peis::Error(peis::ErrorCode::Refused, "ignored: decided twice"));
+  }
+  first.join();
+  CHECK(accepted == 1);
+  CHECK(owner.get("level")->data == "70");
+  CHECK(owner.get("level")->creator == writer.id());
+
+  std::thread second([&] {
+    try {
+      writer.set(owner.id(), "level", "99");
+      accepted = 100;
+    } catch (const peis::Error& e) {
+      accepted = static_cast<int>(e.code()) + 1000;
+    }
+  });
+  REQUIRE_WAIT([&] { return heldCount() == 2; }, kDeadline);
+  {
+    std::lock_guard lock(mu);
+    held[1].second(peis::Error(peis::ErrorCode::Unreachable, "the device did not answer"));
+  }
+  second.join();
+  CHECK(accepted == static_cast<int>(peis::ErrorCode::Unreachable) + 1000);
+  CHECK(owner.get("level")->data == "70");
+}

@@ -33,6 +33,17 @@ using SubscriptionHandle = std::uint64_t;
 // the error (Unreachable, Timeout, Refused, or the owner's own error).
 using WriteDone = std::function<void(const std::optional<Error>& error, std::uint64_t seqno)>;
 
+// Decides one held remote write, exactly once, from any thread: no error
+// applies it (the writer's set returns with the seqno), an error refuses it
+// (the writer's set fails with that error). Later calls are ignored.
+using WriteDecision = std::function<void(const std::optional<Error>& refusal)>;
+// Sees every remote set of one of this PEIS's own tuples before it is
+// applied. Returns false to let it apply now, or true to hold it and call
+// `decide` later (e.g. once the device the PEIS stands for took the value).
+// Runs on the kernel thread; it may call the Kernel.
+using WriteGate =
+    std::function<bool(const Tuple& requested, PeisId writer, const WriteDecision& decide)>;
+
 // A PEIS this one can reach (directly or over several hops).
 struct PeerInfo {
   PeisId id = 0;
@@ -125,6 +136,10 @@ class Kernel {
   // join later) send their matching tuples now and every change after.
   SubscriptionHandle subscribe(const Pattern& pattern);
   bool unsubscribe(SubscriptionHandle handle);
+
+  // Holds remote sets of own tuples for a decision (see WriteGate); an empty
+  // function removes the gate. Appends and erases are never held.
+  void setWriteGate(WriteGate gate);
 
   // --- the ecology ------------------------------------------------------------
   // Every PEIS reachable now, this one included (hops 0).
