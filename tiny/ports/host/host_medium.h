@@ -12,6 +12,10 @@
 
 #include "tiny_kernel.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 #define HOST_MEDIUM_PENDING 64 /* delayed frames held at once */
 
 typedef struct host_medium_config {
@@ -52,5 +56,9 @@ uint32_t host_now_ms(void);
 /* Sends the delayed frames that are due; returns ms until the next one is
  * due (or `idle_ms` if none). */
 int host_medium_flush(host_medium *m, int idle_ms);
+
+#ifdef __cplusplus
+}
+#endif
 
 #endif
