@@ -571,7 +571,10 @@ struct TinyBridge::Impl {
   std::string run() {
     auto nextTick = Clock::now();
     while (!stopping.load()) {
-      if (kernel.quitRequested()) return "the bridge PEIS was told to quit";
+      if (kernel.quitRequested()) {
+        publishStats();
+        return "the bridge PEIS was told to quit";
+      }
       const auto now = Clock::now();
       if (now >= nextTick) {
         tick(now);
@@ -594,6 +597,7 @@ struct TinyBridge::Impl {
       for (const auto& frame : link->receive()) onFrame(frame, at);
       runInbox();
     }
+    publishStats();
     return "stopped";
   }
 };
