@@ -1,6 +1,8 @@
 // Tiny keys <-> full keys (see key_mapping.h).
 #include "key_mapping.h"
 
+#include <vector>
+
 #include "peis/key.h"
 
 namespace peis::bridge {
@@ -46,6 +48,9 @@ std::optional<tiny_key> tinyKeyOf(KeyRegistry& registry, std::string_view fullKe
                 std::string(fullKey) + "' has " + std::to_string(parts.size()));
   tiny_key key{};
   key.len = static_cast<std::uint8_t>(parts.size());
+  // Every part is checked before any is interned: a key that fails leaves
+  // no new index behind (an index, once given, is given for good).
+  std::vector<std::size_t> unknown;
   for (std::size_t i = 0; i < parts.size(); ++i) {
     if (!parts[i].empty() && parts[i][0] == '#') {
       auto raw = rawIndex(parts[i]);
@@ -53,12 +58,15 @@ std::optional<tiny_key> tinyKeyOf(KeyRegistry& registry, std::string_view fullKe
       key.sub[i] = *raw;
     } else if (auto known = registry.find(parts[i])) {
       key.sub[i] = *known;
-    } else if (intern) {
-      key.sub[i] = registry.intern(parts[i]);
-    } else {
+    } else if (!intern) {
       return fail("'" + std::string(parts[i]) + "' has no tiny key index");
+    } else if (auto problem = registryNameProblem(parts[i])) {
+      return fail("'" + std::string(parts[i]) + "' cannot be a tiny key: " + *problem);
+    } else {
+      unknown.push_back(i);
     }
   }
+  for (const auto i : unknown) key.sub[i] = registry.intern(parts[i]);
   return key;
 }
 

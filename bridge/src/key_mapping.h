@@ -17,7 +17,9 @@ std::string fullKeyOf(const KeyRegistry& registry, const tiny_key& key);
 
 // The tiny key of a full key. With `intern`, parts without an index get one
 // (persisted); without, such a key has no tiny key. On failure returns
-// nullopt and says why in *why (more than 7 parts, a bad "#N", no index).
+// nullopt and says why in *why (more than 7 parts, a bad "#N", no index,
+// a part that cannot be a name), having interned nothing. Error(Refused)
+// if interning finds the registry full.
 std::optional<tiny_key> tinyKeyOf(KeyRegistry& registry, std::string_view fullKey, bool intern,
                                   std::string* why);
 

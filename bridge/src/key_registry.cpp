@@ -4,6 +4,7 @@
 #include <sqlite3.h>
 #include <yaml-cpp/yaml.h>
 
+#include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -121,6 +122,13 @@ RegistrySeed parseRegistrySeed(const std::string& yamlText, const std::string& o
     const auto name = item.second.as<std::string>();
     if (auto problem = nameProblem(name))
       fail(origin, item.second, "node name '" + name + "': " + *problem);
+    if (seed.nodeNames.count(static_cast<std::uint16_t>(*id)))
+      fail(origin, item.first, "tiny node " + std::to_string(*id) + " is given twice");
+    for (const auto& [other, otherName] : seed.nodeNames)
+      if (otherName == name)
+        fail(origin, item.second,
+             "tiny nodes " + std::to_string(other) + " and " + std::to_string(*id) +
+                 " would both be PEIS '" + name + "'");
     seed.nodeNames[static_cast<std::uint16_t>(*id)] = name;
   }
   return seed;
@@ -128,7 +136,10 @@ RegistrySeed parseRegistrySeed(const std::string& yamlText, const std::string& o
 
 RegistrySeed loadRegistrySeed(const std::string& path) {
   std::ifstream in(path);
-  if (!in) throw Error(ErrorCode::InvalidConfig, path + ": cannot read the key seed file");
+  // A directory opens as a stream on Linux but reads as nothing.
+  std::error_code ignored;
+  if (!in || std::filesystem::is_directory(path, ignored))
+    throw Error(ErrorCode::InvalidConfig, path + ": cannot read the key seed file");
   std::ostringstream text;
   text << in.rdbuf();
   return parseRegistrySeed(text.str(), path);
@@ -153,7 +164,9 @@ KeyRegistry::KeyRegistry(const std::string& path) : path_(path) {
       const auto* text = sqlite3_column_text(all.get(), 0);
       const auto index = sqlite3_column_int64(all.get(), 1);
       const std::string name = text != nullptr ? reinterpret_cast<const char*>(text) : "";
-      if (registryNameProblem(name) || index < 1 || index > 65535)
+      // The table's constraints say this; a table made elsewhere may lack them.
+      if (registryNameProblem(name) || index < 1 || index > 65535 || byName_.count(name) != 0 ||
+          byIndex_.count(static_cast<KeyIndex>(index)) != 0)
         throw Error(ErrorCode::InvalidConfig, "key registry " + path_ + ": corrupt entry '" + name +
                                                   "' = " + std::to_string(index));
       byName_[name] = static_cast<KeyIndex>(index);

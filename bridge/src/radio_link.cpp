@@ -236,6 +236,7 @@ std::unique_ptr<RadioLink> openRadioLink(const std::string& spec) {
       if (!slots || *slots < 2) throw bad("the medium's slot count must be 2..64");
       config.slots = static_cast<unsigned>(*slots);
     }
+    if (config.slots < 2 || config.slots > 64) throw bad("TINY_MEDIUM_SLOTS must be 2..64");
     if (config.base_port + config.slots - 1 > 65535) throw bad("the port range passes 65535");
     return std::make_unique<MediumLink>(config);
   }

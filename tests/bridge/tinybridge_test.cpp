@@ -58,6 +58,11 @@ class Sniffer {
     while ((n = hal_.recv(hal_.ctx, buf, sizeof buf)) > 0)
       frames_.emplace_back(buf, buf + std::min<int>(n, sizeof buf));
   }
+  // Puts raw bytes on the air (to every other node).
+  void send(const Bytes& bytes) {
+    hal_.send(hal_.ctx, bytes.data(), static_cast<std::uint8_t>(bytes.size()));
+    host_medium_flush(&medium_, 0);
+  }
   // The first frame heard that `match` accepts.
   std::optional<Bytes> find(const std::function<bool(const Bytes&)>& match) {
     drain();
@@ -274,11 +279,26 @@ TEST_CASE("the seed's experiment through the tinybridge, byte for byte on the ra
 TEST_CASE("a write to a tiny node that went silent fails, and the node leaves the ecology",
           "[integration][fault]") {
   Ecology eco;
+  Sniffer sniffer(eco.mediumPort);
   auto bridge = eco.bridge();
   auto blind = eco.node("blind");
   auto joined = eco.cli({"get", "4.kernel.name", "--wait", "15"});
   INFO(bridge->describe());
   REQUIRE(joined.out == "blind\n");
+
+  // Garbage on the air is counted and dropped; the bridge goes on serving.
+  const std::vector<Bytes> garbage = {
+      {0x01},                                                                    // truncated header
+      {0x01, 0x09, 0x04, 0x00, 0xff, 0xff, 0x00, 0x00},                          // wrong version
+      {0x63, 0x01, 0x04, 0x00, 0xff, 0xff, 0x00, 0x00},                          // unknown type
+      {0x02, 0x01, 0x04, 0x00, 0xff, 0xff, 0x00, 0x00, 0x03, 0x00, 0x00, 0x09},  // 9 sub-keys
+      {0x01, 0x01, 0x04, 0x00, 0xff, 0xff, 0x00, 0x00, 0x04, 0x00},              // cut tuple
+      {0x04, 0x01, 0x00, 0x00, 0xff, 0xff, 0x00, 0x00, 0x01, 0x00, 0, 0, 0, 0},  // src 0
+  };
+  for (int round = 0; round < 5; ++round)
+    for (const auto& frame : garbage) sniffer.send(frame);
+  auto still = eco.cli({"get", "4.kernel.name", "--wait", "15"});
+  CHECK(still.out == "blind\n");
 
   blind->kill(SIGKILL);
   REQUIRE(blind->wait(kDeadline).has_value());
@@ -295,4 +315,11 @@ TEST_CASE("a write to a tiny node that went silent fails, and the node leaves th
       [&] { return bridge->err().find("tiny node 4 left") != std::string::npos; }, kDeadline);
   INFO(bridge->describe());
   CHECK(left);
+
+  bridge->kill(SIGTERM);
+  REQUIRE(bridge->wait(kDeadline) == 0);
+  std::smatch dropped;
+  const auto err = bridge->err();
+  REQUIRE(std::regex_search(err, dropped, std::regex(R"(dropped (\d+))")));
+  CHECK(std::stoi(dropped[1]) >= 30);  // 5 rounds of 6 malformed frames
 }
