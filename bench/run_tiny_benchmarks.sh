@@ -22,7 +22,7 @@ out=$(mktemp)
     -- "$build/tiny/tiny-lamp"
   "$bench" roundtrip --link "medium:$((port + 8))" --rounds 500 --label "host port, unpinned" \
     -- "$build/tiny/tiny-lamp"
-  qemu_lamp=$build/firmware/arm-lm3s6965/lamp.elf
+  qemu_lamp=$build/tiny/firmware/arm-lm3s6965-qemu/lamp.elf
   if command -v qemu-system-arm >/dev/null && [ -f "$qemu_lamp" ]; then
     sock=$(mktemp -u /tmp/peis-bench-qemu-XXXXXX.sock)
     "$bench" roundtrip --link "unix:$sock" --rounds 100 \

@@ -8,7 +8,12 @@
  *  - clock: SysTick every millisecond (TINY_ARM_CPU_HZ, 12 MHz after reset);
  *  - tiny_port_report keeps the last value in arm_last_report (no LED);
  *  - tiny_port_sensor returns constants (light TINY_ARM_LIGHT, weight
- *    TINY_ARM_WEIGHT): the emulated board has no sensors.
+ *    TINY_ARM_WEIGHT): the emulated board has no sensors;
+ *  - with -DTINY_ARM_RUN_MS=N (emulator builds only) the program stops
+ *    after N ms through the semihosting SYS_EXIT call, so that
+ *    `qemu-system-arm -semihosting-config enable=on,target=native` exits
+ *    with status 0. Without it (the default) the program runs forever; do
+ *    not set it for a real board, where BKPT halts the core or faults.
  *
  * Startup (vector table, .data copy, .bss zeroing) is in this file too.
  */
@@ -122,6 +127,15 @@ long tiny_port_sensor(uint8_t channel) {
   }
 }
 
+#ifdef TINY_ARM_RUN_MS
+/* ARM semihosting: SYS_EXIT (0x18) with ADP_Stopped_ApplicationExit. */
+static void semihosting_exit(void) {
+  register uint32_t op __asm__("r0") = 0x18u;
+  register uint32_t reason __asm__("r1") = 0x20026u;
+  __asm__ volatile("bkpt 0xAB" : : "r"(op), "r"(reason) : "memory");
+}
+#endif
+
 int main(void) {
   tiny_hal hal;
 #ifdef TINY_NODE_ID
@@ -143,6 +157,9 @@ int main(void) {
     uint32_t now = now_ms(0);
     tiny_poll(&kernel, now);
     app_loop(&kernel, now);
+#ifdef TINY_ARM_RUN_MS
+    if (now >= (uint32_t)(TINY_ARM_RUN_MS)) semihosting_exit();
+#endif
   }
 }
 

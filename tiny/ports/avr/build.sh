@@ -34,6 +34,8 @@ LDFLAGS=(-mmcu=$MCU -Wl,--gc-sections -Wl,--defsym=TINY_FLASH_BUDGET=$FLASH_BUDG
 SOURCES=("$TINY/src/tiny_tuple.c" "$TINY/src/tiny_kernel.c" "$TINY/src/tiny_app.c"
   "$TINY/src/tiny_serial.c" "$HERE/avr_uart.c" "$HERE/main.c")
 LINK_EXTRA=("$HERE/budget.ld")
+# The device programs' report strings stay in flash (avr_report.h).
+APP_CFLAGS=(-include avr_report.h)
 TARGET=$MCU
 
 # shellcheck source=../build_programs.sh

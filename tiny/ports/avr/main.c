@@ -4,8 +4,10 @@
  *
  *  - clock: Timer0 in CTC mode interrupts every millisecond;
  *  - tiny_port_report: toggles the status LED (PB4 unless TINY_AVR_LED_*
- *    say otherwise) and keeps the last value in avr_last_report for a
- *    debugger or simulator to read;
+ *    say otherwise) and keeps the last value in avr_last_report, and the
+ *    event in avr_last_event_P (a string in flash), for a debugger or
+ *    simulator to read. The device programs' calls go to avr_port_report_P
+ *    with the string in flash (avr_report.h, force-included by build.sh);
  *  - tiny_port_sensor: the light sensor is ADC0 (0..1023 scaled to
  *    0..1000), the weight sensor ADC1 (in grams, 0..1023).
  *
@@ -26,6 +28,7 @@
 static volatile uint32_t clock_ms;
 static tiny_kernel kernel;
 volatile long avr_last_report;
+const char *volatile avr_last_event_P; /* flash address (PROGMEM), or NULL */
 
 ISR(TIMER0_COMP_vect) { ++clock_ms; }
 
@@ -46,10 +49,17 @@ static void clock_init(void) {
   TIMSK |= (1 << OCIE0);
 }
 
-void tiny_port_report(const char *event, long value) {
-  (void)event;
+void avr_port_report_P(const char *event_P, long value) {
+  avr_last_event_P = event_P;
   avr_last_report = value;
   TINY_AVR_LED_PORT ^= (uint8_t)(1 << TINY_AVR_LED_BIT);
+}
+
+/* The plain entry point of tiny_app.h, for callers not compiled with
+ * avr_report.h: the event (in RAM) is not kept. */
+void tiny_port_report(const char *event, long value) {
+  (void)event;
+  avr_port_report_P(0, value);
 }
 
 static uint16_t adc_read(uint8_t channel) {
