@@ -358,6 +358,10 @@ int commandLs(peis::Kernel& kernel, const Args& args) {
         return true;
       },
       deadline);
+  // PEIS that left while we waited (e.g. short-lived `peis` commands) are
+  // not listed.
+  std::set<peis::PeisId> stillThere;
+  for (const auto& peer : kernel.peers()) stillThere.insert(peer.id);
   const auto now = peis::systemNow().time_since_epoch().count();
   auto value = [&](peis::PeisId id, const char* key) {
     auto t = kernel.get(id, key);
@@ -368,7 +372,7 @@ int commandLs(peis::Kernel& kernel, const Args& args) {
   if (!args.json)
     std::printf("%-11s %-20s %-16s %4s  %-24s %s\n", "ID", "NAME", "HOST", "HOPS", "LINKS", "UP");
   for (const auto& peer : peers) {
-    if (peer.id == kernel.id()) continue;
+    if (peer.id == kernel.id() || !stillThere.count(peer.id)) continue;
     const auto started = value(peer.id, "kernel.started");
     double up = -1;
     try {
@@ -383,9 +387,11 @@ int commandLs(peis::Kernel& kernel, const Args& args) {
                 << ",\"links\":" << jsonString(value(peer.id, "kernel.links"))
                 << ",\"uptime_s\":" << up << "}";
     } else {
-      std::printf("%-11d %-20s %-16s %4d  %-24s %.1fs\n", peer.id, peer.name.c_str(),
+      char upText[32] = "?";
+      if (up >= 0) std::snprintf(upText, sizeof upText, "%.1fs", up);
+      std::printf("%-11d %-20s %-16s %4d  %-24s %s\n", peer.id, peer.name.c_str(),
                   value(peer.id, "kernel.hostname").c_str(), peer.hops,
-                  value(peer.id, "kernel.links").c_str(), up);
+                  value(peer.id, "kernel.links").c_str(), upText);
     }
     first = false;
   }
