@@ -26,7 +26,7 @@ out=$(mktemp)
   if command -v qemu-system-arm >/dev/null && [ -f "$qemu_lamp" ]; then
     sock=$(mktemp -u /tmp/peis-bench-qemu-XXXXXX.sock)
     "$bench" roundtrip --link "unix:$sock" --rounds 100 \
-      --label "LM3S6965 under qemu-system-arm, UART 115200 on a UNIX socket" \
+      --label "LM3S6965 under qemu-system-arm, UART on a UNIX socket" \
       -- timeout 300 qemu-system-arm -M lm3s6965evb -nographic -monitor none \
       -semihosting-config enable=on,target=native -kernel "$qemu_lamp" \
       -serial "unix:$sock,server=on,wait=off"
