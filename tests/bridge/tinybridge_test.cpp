@@ -255,6 +255,8 @@ TEST_CASE("the seed's experiment through the tinybridge, byte for byte on the ra
     return std::find(positions.begin(), positions.end(), value) != positions.end();
   };
   REQUIRE(waitFor([&] { return seen("0"); }, kDeadline));
+  Process watch({peis::test::peisCliPath(), "watch", "blind.BlindPosition", "--timeout", "30",
+                 "--peis-ecology", eco.name});
   auto open = eco.cli({"set", "3.TiltValue", "55", "--timeout", "15"});
   INFO(open.err);
   REQUIRE(open.status == 0);  // returned once the plant itself had it
@@ -266,6 +268,11 @@ TEST_CASE("the seed's experiment through the tinybridge, byte for byte on the ra
             })
             .has_value());
   CHECK(observer.get(3, "TiltValue", 15s)->data == "55");
+  // peis watch on a tiny node's tuple (it may print the value it found first).
+  const bool watched = waitFor(
+      [&] { return watch.out().find("4.BlindPosition = 55\n") != std::string::npos; }, kDeadline);
+  INFO(watch.describe());
+  CHECK(watched);
 
   // A key no tiny node knew gets the next index, persisted, published.
   auto humidity = eco.cli({"set", "3.Humidity", "12", "--timeout", "15"});
