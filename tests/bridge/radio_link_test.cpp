@@ -2,7 +2,9 @@
 // link spec, and the serial link over a UNIX socket.
 #include "radio_link.h"
 
+#include <fcntl.h>
 #include <poll.h>
+#include <pty.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>
@@ -18,6 +20,7 @@
 
 #include "peis/error.h"
 #include "support/error_matchers.h"
+#include "support/wait_for.h"
 #include "tiny_serial.h"
 
 using Catch::Matchers::Contains;
@@ -191,12 +194,12 @@ TEST_CASE("a serial link over a UNIX socket carries framed frames both ways",
   }
   SECTION("a closed connection is re-opened by service()") {
     ::close(peer);
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(2);
-    while (link->fd() >= 0 && std::chrono::steady_clock::now() < deadline) {
-      link->receive();
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    REQUIRE(link->fd() == -1);
+    REQUIRE(peis::test::waitFor(
+        [&] {
+          link->receive();
+          return link->fd() == -1;
+        },
+        std::chrono::seconds(2)));
     CHECK_FALSE(link->send(Frame{1}));
     link->service();
     CHECK(link->fd() >= 0);
@@ -209,4 +212,26 @@ TEST_CASE("a serial link over a UNIX socket carries framed frames both ways",
     return;
   }
   ::close(peer);
+}
+
+TEST_CASE("a serial link on a tty device (a pty here) carries framed frames both ways",
+          "[unit][bridge][link]") {
+  int master = -1, slave = -1;
+  char name[128] = {};
+  REQUIRE(::openpty(&master, &slave, name, nullptr, nullptr) == 0);
+  ::close(slave);  // the link opens the device by its name
+  auto link = openRadioLink(std::string(name) + ":115200");
+  REQUIRE(link->fd() >= 0);
+  CHECK_THAT(link->describe(), Contains(name));
+
+  const Frame out{0x04, 0x01, 0x07, 0x00};
+  REQUIRE(link->send(out));
+  CHECK(readSerialFrame(master) == out);
+
+  std::uint8_t wire[TINY_SERIAL_MAX];
+  const std::uint8_t in[] = {0x01, 0x7E, 0x03};
+  const auto n = tiny_serial_encode(wire, in, sizeof in);
+  REQUIRE(::write(master, wire, n) == static_cast<ssize_t>(n));
+  CHECK(receiveSome(*link) == std::vector<Frame>{{0x01, 0x7E, 0x03}});
+  ::close(master);
 }
