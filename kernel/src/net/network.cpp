@@ -157,11 +157,16 @@ class Network::Impl {
   std::deque<Held> held_;
   // Messages for this PEIS, handed over together once a read is parsed.
   std::vector<wire::RoutedMessage> inbox_;
+  // Two buffers take turns so a stream of reads allocates no new vector.
+  std::vector<wire::RoutedMessage> spareInbox_;
   void flushInbox() {
     if (inbox_.empty()) return;
-    auto messages = std::move(inbox_);
-    inbox_.clear();
+    std::vector<wire::RoutedMessage> messages;
+    messages.swap(inbox_);
+    inbox_.swap(spareInbox_);
     if (events_.onMessages) events_.onMessages(std::move(messages));
+    messages.clear();  // the handler took the messages; keep the buffer
+    if (spareInbox_.capacity() < messages.capacity()) spareInbox_.swap(messages);
   }
   void collision(std::uint64_t otherIncarnation);
   void recompute();
@@ -171,6 +176,7 @@ class Network::Impl {
                 void (Impl::*work)());
   void advertise();
   std::shared_ptr<Link> linkTo(PeisId peer) const;
+  Link* findLink(PeisId peer) const;  // linkTo without the reference count
   bool forward(PeisId destination, std::string frame);
   void beaconLoop();
   void sendBeacon(const udp::endpoint& to, bool wantsAnswer);
@@ -231,19 +237,26 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   }
 
   // Tuple updates are plain frames here; the Kernel coalesces them before
-  // they reach a link, when the links are congested (see congested()).
-  void sendUpdate(std::string frame) {
+  // they reach a link, when the links are congested (see congested()). The
+  // frame is encoded straight into the write queue.
+  void sendUpdate(const wire::Envelope& envelope, std::uint64_t incarnation, const Tuple& tuple) {
     if (closed_) return;
-    if (frame.size() >= kWriteChunk / 8) {
-      // A big frame becomes a chunk of its own: no copy.
-      queued_ += frame.size();
-      lastSent_ = SteadyClock::now();
-      ++net_.counters_.framesOut;
-      chunks_.push_back(std::move(frame));
-      chunks_.emplace_back();  // later frames must not be appended to it
+    const auto bytes = wire::tupleUpdateFrameBytes(tuple);
+    if (bytes >= kWriteChunk / 8) {
+      // A big frame becomes a chunk of its own: later frames are not
+      // appended to it (no copy of it when the next ones are queued).
+      chunks_.emplace_back().reserve(bytes);
+      wire::encodeTupleUpdate(envelope, incarnation, tuple, chunks_.back());
+      chunks_.emplace_back();
     } else {
-      enqueue(frame);
+      if (chunks_.empty() || chunks_.back().size() >= kWriteChunk) chunks_.emplace_back();
+      auto& chunk = chunks_.back();
+      // A stream of small frames fills the chunk without regrowing it.
+      if (chunk.capacity() < chunk.size() + bytes) chunk.reserve(kWriteChunk + kWriteChunk / 8);
+      wire::encodeTupleUpdate(envelope, incarnation, tuple, chunk);
     }
+    queued_ += bytes;
+    ++net_.counters_.framesOut;
     write();
   }
 
@@ -286,7 +299,6 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
     if (chunks_.empty() || chunks_.back().size() >= kWriteChunk) chunks_.emplace_back();
     chunks_.back().append(frame);
     queued_ += frame.size();
-    lastSent_ = SteadyClock::now();
     ++net_.counters_.framesOut;
   }
 
@@ -298,6 +310,7 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
     chunks_.pop_front();
     queued_ -= out_.size();
     writing_ = true;
+    lastSent_ = SteadyClock::now();  // what is queued goes out now
     asio::async_write(
         socket_, asio::buffer(out_),
         [self = shared_from_this()](const boost::system::error_code& ec, std::size_t) {
@@ -704,13 +717,20 @@ std::shared_ptr<Network::Impl::Link> Network::Impl::linkTo(PeisId peer) const {
   return nullptr;
 }
 
+Network::Impl::Link* Network::Impl::findLink(PeisId peer) const {
+  for (const auto& link : links_) {
+    if (link->established_ && link->peer_.id == peer) return link.get();
+  }
+  return nullptr;
+}
+
 bool Network::Impl::forward(PeisId destination, std::string frame) {
   auto route = routes_.find(destination);
   if (route == routes_.end() || route->second.hops == 0) {
     ++counters_.unroutable;
     return false;
   }
-  auto link = linkTo(route->second.nextHop);
+  auto* link = findLink(route->second.nextHop);
   if (!link) {
     ++counters_.unroutable;
     return false;
@@ -731,15 +751,12 @@ bool Network::Impl::sendUpdate(PeisId destination, std::uint64_t incarnation, co
     ++counters_.unroutable;
     return false;
   }
-  auto link = linkTo(route->second.nextHop);
+  auto* link = findLink(route->second.nextHop);
   if (!link) {
     ++counters_.unroutable;
     return false;
   }
-  std::string frame;
-  wire::encodeTupleUpdate(wire::Envelope{self_, destination, wire::kDefaultTtl}, incarnation, tuple,
-                          frame);
-  link->sendUpdate(std::move(frame));
+  link->sendUpdate(wire::Envelope{self_, destination, wire::kDefaultTtl}, incarnation, tuple);
   return true;
 }
 
