@@ -43,7 +43,8 @@ constexpr std::chrono::milliseconds kDialQuiet{15};
 constexpr std::chrono::milliseconds kRecomputeDelay{100};
 constexpr std::chrono::seconds kHoldFor{3};  // how long a frame waits for its source's route
 constexpr std::size_t kMaxHeldFrames = 1024;
-constexpr std::chrono::milliseconds kDialMaxDelay{300};
+constexpr std::chrono::milliseconds kDialMaxDelay{1000};
+constexpr int kMaxBeaconBackoff = 8;  // beacon period at most 8x the configured one
 
 std::string endpointText(const tcp::endpoint& e) {
   return e.address().to_string() + ":" + std::to_string(e.port());
@@ -187,6 +188,8 @@ class Network::Impl {
   // PEIS starting together do not link to every target they pass through.
   void scheduleDials();
   void pruneLinks();
+  void armBeacon(SteadyClock::time_point at);
+  void membershipChanged(SteadyClock::time_point now);
   std::vector<PeisId> overlayIds() const;
   void pingLoop();
   void redialLoop();
@@ -201,6 +204,8 @@ class Network::Impl {
   bool recomputeScheduled_ = false;
   asio::steady_timer recomputeTimer_{io_};
   SteadyClock::time_point membershipChanged_;
+  std::chrono::milliseconds beaconInterval_{0};  // the current beacon period
+  SteadyClock::time_point beaconDue_;
   SteadyClock::time_point dialsFirstAsked_;
   bool advertScheduled_ = false;
   std::vector<std::shared_ptr<Link>> links_;
@@ -276,6 +281,10 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   }
 
   std::size_t backlog() const { return out_.size() + queued_; }
+  bool bytesWaiting() {
+    boost::system::error_code ec;
+    return socket_.available(ec) > 0 && !ec;
+  }
 
   Impl& net_;
   tcp::socket socket_;
@@ -893,11 +902,17 @@ void Network::Impl::pingLoop() {
     const auto now = SteadyClock::now();
     auto links = links_;
     for (auto& link : links) {
-      if (now - link->lastHeard_ > config_.deadAfter) {
+      // Bytes waiting in the socket are a sign of life too: after this
+      // thread was starved (a busy host), the timer can run before the reads.
+      if (now - link->lastHeard_ > config_.deadAfter && !link->bytesWaiting()) {
         link->close("silent for more than " + std::to_string(config_.deadAfter.count()) + " ms");
         continue;
       }
-      if (!link->established_ || now - link->lastSent_ < config_.pingPeriod) continue;
+      // Ping only a link we have heard nothing on for a ping period: the
+      // Ping tells the peer we live, its Pong tells us. A link busy in
+      // one direction costs one Ping a period, an idle one a single
+      // exchange (whichever end asks first), not one from each end.
+      if (!link->established_ || now - link->lastHeard_ < config_.pingPeriod) continue;
       std::string out;
       wire::encode(
           wire::LinkMessage{wire::Ping{static_cast<std::uint64_t>(now.time_since_epoch().count())}},
@@ -933,17 +948,39 @@ void Network::Impl::beaconLoop() {
     const bool quiet = now - it->second.lastSeen > config_.beaconPeriod * 4;
     if (quiet && !routes_.count(it->first)) {
       it = beaconPeers_.erase(it);
-      membershipChanged_ = now;
+      membershipChanged(now);
     } else {
       ++it;
     }
   }
   evaluateDials();
   pruneLinks();
-  beaconTimer_.expires_after(config_.beaconPeriod);
+  // While the membership is stable the period doubles, up to
+  // kMaxBeaconBackoff times the configured one: N PEIS on a quiet network
+  // then cost each other N/8 beacons a second instead of N. A change
+  // (below, and in onBeacon) brings the configured period back.
+  if (now - membershipChanged_ >= beaconInterval_) {
+    beaconInterval_ = std::min(beaconInterval_ * 2, config_.beaconPeriod * kMaxBeaconBackoff);
+  } else {
+    beaconInterval_ = config_.beaconPeriod;
+  }
+  armBeacon(now + beaconInterval_);
+}
+
+void Network::Impl::armBeacon(SteadyClock::time_point at) {
+  beaconDue_ = at;
+  beaconTimer_.expires_at(at);
   beaconTimer_.async_wait([this](const boost::system::error_code& ec) {
     if (!ec && !stopped_) beaconLoop();
   });
+}
+
+// The membership changed: beacon at the configured period again.
+void Network::Impl::membershipChanged(SteadyClock::time_point now) {
+  membershipChanged_ = now;
+  if (beaconInterval_ == config_.beaconPeriod) return;
+  beaconInterval_ = config_.beaconPeriod;
+  if (udp_.is_open() && beaconDue_ > now + beaconInterval_) armBeacon(now + beaconInterval_);
 }
 
 void Network::Impl::sendBeacon(const udp::endpoint& to, bool wantsAnswer) {
@@ -981,7 +1018,7 @@ void Network::Impl::onBeacon(const Beacon& beacon, const udp::endpoint& from) {
   }
   auto [it, isNew] = beaconPeers_.try_emplace(beacon.id);
   isNew = isNew || it->second.incarnation != beacon.incarnation;
-  if (isNew) membershipChanged_ = SteadyClock::now();
+  if (isNew) membershipChanged(SteadyClock::now());
   it->second = BeaconPeer{from.address(), beacon.port, beacon.incarnation, SteadyClock::now()};
   if (isNew) {
     if (beacon.wantsAnswer) sendBeacon(from, false);
