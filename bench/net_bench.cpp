@@ -432,7 +432,8 @@ ScaleResult scale(int n, const std::string& ecology) {
   return result;
 }
 
-int runAll(const std::string& what) {
+// `sizes` ("16,1024"; empty: all) limits the throughput runs, for profiling.
+int runAll(const std::string& what, const std::string& sizes) {
   const std::string ecology = "bench-" + std::to_string(getpid());
   auto wanted = [&](const char* name) { return what == "all" || what == name; };
   if (wanted("rtt")) {
@@ -455,6 +456,10 @@ int runAll(const std::string& what) {
         "| stream | size | subscribers | written | delivered (distinct) | updates/s delivered | "
         "MB/s | coalesced |\n|---|---|---|---|---|---|---|---|\n");
     for (std::size_t bytes : {16u, 1024u, 65536u}) {
+      if (!sizes.empty() &&
+          ("," + sizes + ",").find("," + std::to_string(bytes) + ",") == std::string::npos) {
+        continue;
+      }
       const auto r = streamTo(bytes, 1, ecology + "-tp" + std::to_string(bytes), 2s);
       std::printf("| one writer | %s | 1 | %llu | %llu | %.0f | %.1f | %llu |\n",
                   sizeName(bytes).c_str(), static_cast<unsigned long long>(r.written),
@@ -462,6 +467,7 @@ int runAll(const std::string& what) {
                   r.megabytesPerSecond, static_cast<unsigned long long>(r.coalesced));
       std::fflush(stdout);
     }
+    if (!sizes.empty()) return 0;
     const auto r = streamTo(16, 10, ecology + "-fan", 2s);
     std::printf("| fan-out | 16 B | 10 | %llu | %llu | %.0f | %.1f | %llu |\n\n",
                 static_cast<unsigned long long>(r.written),
@@ -496,7 +502,8 @@ int runAll(const std::string& what) {
 int main(int argc, char** argv) {
   if (argc > 1 && (std::strcmp(argv[1], "--help") == 0 || std::strcmp(argv[1], "-h") == 0)) {
     std::printf(
-        "Usage: peis-bench-net [all|rtt|throughput|join|scale]\n"
+        "Usage: peis-bench-net [all|rtt|throughput|join|scale] [SIZES]\n"
+        "SIZES (e.g. 16,1024) limits the one-writer throughput runs to those sizes.\n"
         "Measures the ecology over loopback beside raw TCP; prints Markdown tables.\n");
     return 0;
   }
@@ -510,5 +517,5 @@ int main(int argc, char** argv) {
     if (role == "node") return roleNode(flags);
     return 2;
   }
-  return runAll(argc > 1 ? argv[1] : "all");
+  return runAll(argc > 1 ? argv[1] : "all", argc > 2 ? argv[2] : "");
 }

@@ -3,6 +3,7 @@
 // thread runs the deliveries with no lock held, so callbacks may call the API.
 #include "peis/kernel.h"
 
+#include <pthread.h>
 #include <pwd.h>
 #include <unistd.h>
 
@@ -184,18 +185,14 @@ struct Kernel::Impl {
     if (waiters > 0) changed.notify_all();
   }
 
+  std::vector<TupleSpace::Delivery> batch;  // kernel thread: drain's, reused
+
   void drain() {
-    std::vector<TupleSpace::Delivery> batch;
-    batch.reserve(kDeliveriesPerLock);
     for (std::size_t turn = 0; turn < kDeliveriesPerTurn; turn += kDeliveriesPerLock) {
       batch.clear();
       {
         std::lock_guard lock(mu);
-        while (batch.size() < kDeliveriesPerLock) {
-          auto delivery = space.nextDelivery();
-          if (!delivery) break;
-          batch.push_back(std::move(*delivery));
-        }
+        space.takeDeliveries(batch, kDeliveriesPerLock);
         if (batch.empty()) {
           if (space.allKeysDirty()) {
             space.flushAllKeys();
@@ -221,6 +218,7 @@ struct Kernel::Impl {
         });
       }
     }
+    batch.clear();
     asio::post(io, [this] { drain(); });  // more to do: yield to timers first
   }
 
@@ -296,20 +294,22 @@ struct Kernel::Impl {
   }
 
   // --- network glue (kernel thread) -------------------------------------------
+  std::vector<Replication::Outgoing> outgoing;  // kernel thread: flush's, reused
+
   void flush() {
-    std::vector<Replication::Outgoing> outgoing;
     if (network && network->congested()) return;  // onWritable posts flush again
+    outgoing.clear();
     {
       std::lock_guard lock(mu);
-      outgoing = replication.takeOutbox(kMessagesPerTurn);
+      replication.takeOutbox(outgoing, kMessagesPerTurn);
       if (replication.hasOutgoing()) {
         asio::post(io, [this] { flush(); });  // more: let the sockets drain first
       } else {
         flushScheduled = false;
       }
     }
-    if (!network) return;
     for (auto& out : outgoing) {
+      if (!network) break;
       if (out.update) {
         network->sendUpdate(out.destination, incarnation, *out.update);
       } else {
@@ -317,6 +317,7 @@ struct Kernel::Impl {
                                           std::move(*out.body)});
       }
     }
+    outgoing.clear();  // drop the references to sent tuples now
   }
 
   void refreshMembershipTuples() {  // mu held
@@ -650,7 +651,10 @@ Kernel::Kernel(Options options) {
   options.validate();
   const auto id = pickId(options);
   impl_ = std::make_unique<Impl>(std::move(options), id);
-  impl_->thread = std::thread([impl = impl_.get()] { impl->io.run(); });
+  impl_->thread = std::thread([impl = impl_.get()] {
+    pthread_setname_np(pthread_self(), "peis-kernel");  // for top -H, perf
+    impl->io.run();
+  });
   impl_->threadId = impl_->thread.get_id();
   try {
     impl_->publishSpecialTuples();

@@ -278,20 +278,24 @@ void Replication::pushUpdate(PeisId destination, const TuplePtr& tuple) {
     }
     pendingUpdates_[key] = outboxBase_ + outbox_.size();
   }
-  outbox_.push_back(Outgoing{destination, tuple, std::nullopt});
+  outbox_.emplace_back(destination, tuple);
 }
 
 std::vector<Replication::Outgoing> Replication::takeOutbox(std::size_t most) {
   std::vector<Outgoing> out;
+  takeOutbox(out, most);
+  return out;
+}
+
+void Replication::takeOutbox(std::vector<Outgoing>& out, std::size_t most) {
   const auto count = std::min(most, outbox_.size());
-  out.reserve(count);
+  out.reserve(out.size() + count);
   for (std::size_t i = 0; i < count; ++i) {
     out.push_back(std::move(outbox_.front()));
     outbox_.pop_front();
   }
   outboxBase_ += count;
   if (outbox_.empty()) pendingUpdates_.clear();
-  return out;
 }
 
 }  // namespace peis

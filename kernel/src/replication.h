@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <deque>
 #include <map>
+#include <memory>
 #include <optional>
 #include <set>
 #include <vector>
@@ -28,10 +29,15 @@ class Replication {
 
   // One message to send: a tuple update (encoded straight from the stored
   // tuple) or another routed body.
+  // Small (32 bytes): the outbox moves many of them per flush.
   struct Outgoing {
+    Outgoing() = default;
+    Outgoing(PeisId to, TuplePtr tuple) : destination(to), update(std::move(tuple)) {}
+    Outgoing(PeisId to, std::nullptr_t, wire::RoutedBody message)
+        : destination(to), body(std::make_unique<wire::RoutedBody>(std::move(message))) {}
     PeisId destination = 0;
     TuplePtr update;
-    std::optional<wire::RoutedBody> body;
+    std::unique_ptr<wire::RoutedBody> body;
   };
 
   Replication(TupleSpace& space, std::uint64_t incarnation, std::chrono::milliseconds lease);
@@ -67,6 +73,8 @@ class Replication {
 
   // Takes up to `most` messages, oldest first.
   std::vector<Outgoing> takeOutbox(std::size_t most = SIZE_MAX);
+  // The same, appended to `out` (whose memory the caller reuses).
+  void takeOutbox(std::vector<Outgoing>& out, std::size_t most);
   // Updates replaced in the outbox by a newer value of the same tuple.
   std::uint64_t coalesced() const { return coalesced_; }
   // Outbox length above which updates to the same (destination, key) coalesce.

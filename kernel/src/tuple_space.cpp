@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <atomic>
+#include <iterator>
+#include <type_traits>
 
 #include "peis/error.h"
 #include "peis/key.h"
@@ -28,13 +30,6 @@ struct TupleSpace::Indirect {
   std::optional<TupleRef> queueTarget;
   std::optional<TupleRef> deliverTarget;
   std::uint64_t lastSeqno = 0;
-};
-
-struct TupleSpace::Delivery::Target {
-  std::shared_ptr<Entry> entry;
-  std::shared_ptr<Indirect> indirect;
-  bool retarget = false;
-  std::optional<TupleRef> newTarget;
 };
 
 namespace {
@@ -69,17 +64,17 @@ void TupleSpace::Delivery::run(const std::function<void(std::exception_ptr)>& on
     }
   };
   for (const auto& target : targets_) {
-    if (target->entry) {
-      const auto& entry = *target->entry;
+    if (target.entry) {
+      const auto& entry = *target.entry;
       if (entry.active && tuple_ && (entry.mask & static_cast<unsigned>(kind_))) {
         call(entry.fn, kind_);
       }
       continue;
     }
-    auto& indirect = *target->indirect;
+    auto& indirect = *target.indirect;
     if (!indirect.active) continue;
-    if (target->retarget) {
-      indirect.deliverTarget = target->newTarget;
+    if (target.retarget) {
+      indirect.deliverTarget = target.newTarget;
       indirect.lastSeqno = 0;
       if (tuple_) {
         indirect.lastSeqno = tuple_->seqno;
@@ -150,7 +145,7 @@ TuplePtr TupleSpace::live(const TuplePtr& tuple) const {
   return tuple;
 }
 
-TuplePtr TupleSpace::store(Tuple tuple) {
+TuplePtr TupleSpace::store(Tuple&& tuple) {
   auto ref = refOf(tuple);
   auto ptr = std::make_shared<const Tuple>(std::move(tuple));
   auto [it, inserted] = tuples_.insert_or_assign(std::move(ref), ptr);
@@ -461,11 +456,7 @@ void TupleSpace::retarget(const std::shared_ptr<Indirect>& indirect) {
   Delivery delivery;
   delivery.kind_ = EventKind::Changed;
   delivery.tuple_ = target ? get(target->owner, target->key) : nullptr;
-  auto t = std::make_shared<Delivery::Target>();
-  t->indirect = indirect;
-  t->retarget = true;
-  t->newTarget = target;
-  delivery.targets_.push_back(std::move(t));
+  delivery.targets_.push_back(Delivery::Target{nullptr, indirect, true, target});
   queue_.push_back(std::move(delivery));
 }
 
@@ -476,9 +467,7 @@ void TupleSpace::queueEvent(EventKind kind, const TuplePtr& tuple) {
   delivery.tuple_ = tuple;
   for (const auto& [id, entry] : callbacks_) {
     if ((entry->mask & static_cast<unsigned>(kind)) && entry->pattern.matches(*tuple)) {
-      auto target = std::make_shared<Delivery::Target>();
-      target->entry = entry;
-      delivery.targets_.push_back(std::move(target));
+      delivery.targets_.push_back(Delivery::Target{entry, nullptr, false, std::nullopt});
     }
   }
   // A PEIS taking, changing or losing a name can change where meta tuples
@@ -487,9 +476,7 @@ void TupleSpace::queueEvent(EventKind kind, const TuplePtr& tuple) {
   std::vector<std::shared_ptr<Indirect>> metaWatchers;
   for (const auto& [id, indirect] : indirects_) {
     if (sameRef(indirect->queueTarget, *tuple)) {
-      auto target = std::make_shared<Delivery::Target>();
-      target->indirect = indirect;
-      delivery.targets_.push_back(std::move(target));
+      delivery.targets_.push_back(Delivery::Target{nullptr, indirect, false, std::nullopt});
     }
     if (nameEvent || (indirect->meta.owner == tuple->owner && indirect->meta.key == tuple->key)) {
       metaWatchers.push_back(indirect);
@@ -499,11 +486,23 @@ void TupleSpace::queueEvent(EventKind kind, const TuplePtr& tuple) {
   for (const auto& indirect : metaWatchers) retarget(indirect);
 }
 
+static_assert(std::is_nothrow_move_constructible_v<TupleSpace::Delivery>,
+              "the delivery queue moves deliveries when it grows");
+
 std::optional<TupleSpace::Delivery> TupleSpace::nextDelivery() {
   if (queue_.empty()) return std::nullopt;
-  auto delivery = std::move(queue_.front());
+  std::optional<Delivery> delivery(std::move(queue_.front()));
   queue_.pop_front();
   return delivery;
+}
+
+std::size_t TupleSpace::takeDeliveries(std::vector<Delivery>& out, std::size_t most) {
+  const auto count = std::min(most, queue_.size());
+  for (std::size_t i = 0; i < count; ++i) {
+    out.push_back(std::move(queue_.front()));
+    queue_.pop_front();
+  }
+  return count;
 }
 
 std::size_t TupleSpace::dispatch() {

@@ -9,6 +9,7 @@
 // call back into the space without re-entering a running callback.
 #pragma once
 
+#include <boost/container/small_vector.hpp>
 #include <cstdint>
 #include <deque>
 #include <exception>
@@ -39,6 +40,9 @@ struct SpaceLimits {
 };
 
 class TupleSpace {
+  struct Entry;
+  struct Indirect;
+
  public:
   TupleSpace(PeisId self, Clock clock, SpaceLimits limits = {});
   TupleSpace(const TupleSpace&) = delete;
@@ -137,6 +141,12 @@ class TupleSpace {
   // One queued event with the callbacks it matched when it happened.
   class Delivery {
    public:
+    Delivery() = default;
+    // Moving the targets moves shared_ptrs and strings only: cannot throw.
+    Delivery(Delivery&&) noexcept = default;
+    Delivery& operator=(Delivery&&) noexcept = default;
+    Delivery(const Delivery&) = default;
+    Delivery& operator=(const Delivery&) = default;
     // Runs the matched callbacks in order. One that throws does not keep
     // the others from running: `onError` gets each exception; without it the
     // first one is rethrown once all have run.
@@ -146,12 +156,20 @@ class TupleSpace {
 
    private:
     friend class TupleSpace;
-    struct Target;
+    // One callback to run; held by value (almost every event matches one).
+    struct Target {
+      std::shared_ptr<Entry> entry;
+      std::shared_ptr<Indirect> indirect;
+      bool retarget = false;
+      std::optional<TupleRef> newTarget;
+    };
     EventKind kind_ = EventKind::Changed;
     TuplePtr tuple_;
-    std::vector<std::shared_ptr<Target>> targets_;
+    boost::container::small_vector<Target, 1> targets_;
   };
   std::optional<Delivery> nextDelivery();
+  // Moves up to `most` queued deliveries, oldest first, to the end of `out`.
+  std::size_t takeDeliveries(std::vector<Delivery>& out, std::size_t most);
   bool hasPendingDeliveries() const { return !queue_.empty(); }
   // Runs queued deliveries until none is left; a nested call returns 0.
   std::size_t dispatch();
@@ -163,9 +181,7 @@ class TupleSpace {
   void flushAllKeys();
 
  private:
-  struct Entry;
-  struct Indirect;
-  TuplePtr store(Tuple tuple);
+  TuplePtr store(Tuple&& tuple);
   void remove(std::map<TupleRef, TuplePtr>::iterator it, std::uint64_t seqno);
   void queueEvent(EventKind kind, const TuplePtr& tuple);
   void retarget(const std::shared_ptr<Indirect>& indirect);

@@ -43,7 +43,8 @@ constexpr std::chrono::milliseconds kDialQuiet{15};
 constexpr std::chrono::milliseconds kRecomputeDelay{100};
 constexpr std::chrono::seconds kHoldFor{3};  // how long a frame waits for its source's route
 constexpr std::size_t kMaxHeldFrames = 1024;
-constexpr std::chrono::milliseconds kDialMaxDelay{300};
+constexpr std::chrono::milliseconds kDialMaxDelay{1000};
+constexpr int kMaxBeaconBackoff = 8;  // beacon period at most 8x the configured one
 
 std::string endpointText(const tcp::endpoint& e) {
   return e.address().to_string() + ":" + std::to_string(e.port());
@@ -157,11 +158,16 @@ class Network::Impl {
   std::deque<Held> held_;
   // Messages for this PEIS, handed over together once a read is parsed.
   std::vector<wire::RoutedMessage> inbox_;
+  // Two buffers take turns so a stream of reads allocates no new vector.
+  std::vector<wire::RoutedMessage> spareInbox_;
   void flushInbox() {
     if (inbox_.empty()) return;
-    auto messages = std::move(inbox_);
-    inbox_.clear();
+    std::vector<wire::RoutedMessage> messages;
+    messages.swap(inbox_);
+    inbox_.swap(spareInbox_);
     if (events_.onMessages) events_.onMessages(std::move(messages));
+    messages.clear();  // the handler took the messages; keep the buffer
+    if (spareInbox_.capacity() < messages.capacity()) spareInbox_.swap(messages);
   }
   void collision(std::uint64_t otherIncarnation);
   void recompute();
@@ -171,6 +177,7 @@ class Network::Impl {
                 void (Impl::*work)());
   void advertise();
   std::shared_ptr<Link> linkTo(PeisId peer) const;
+  Link* findLink(PeisId peer) const;  // linkTo without the reference count
   bool forward(PeisId destination, std::string frame);
   void beaconLoop();
   void sendBeacon(const udp::endpoint& to, bool wantsAnswer);
@@ -181,6 +188,8 @@ class Network::Impl {
   // PEIS starting together do not link to every target they pass through.
   void scheduleDials();
   void pruneLinks();
+  void armBeacon(SteadyClock::time_point at);
+  void membershipChanged(SteadyClock::time_point now);
   std::vector<PeisId> overlayIds() const;
   void pingLoop();
   void redialLoop();
@@ -195,6 +204,8 @@ class Network::Impl {
   bool recomputeScheduled_ = false;
   asio::steady_timer recomputeTimer_{io_};
   SteadyClock::time_point membershipChanged_;
+  std::chrono::milliseconds beaconInterval_{0};  // the current beacon period
+  SteadyClock::time_point beaconDue_;
   SteadyClock::time_point dialsFirstAsked_;
   bool advertScheduled_ = false;
   std::vector<std::shared_ptr<Link>> links_;
@@ -231,19 +242,26 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   }
 
   // Tuple updates are plain frames here; the Kernel coalesces them before
-  // they reach a link, when the links are congested (see congested()).
-  void sendUpdate(std::string frame) {
+  // they reach a link, when the links are congested (see congested()). The
+  // frame is encoded straight into the write queue.
+  void sendUpdate(const wire::Envelope& envelope, std::uint64_t incarnation, const Tuple& tuple) {
     if (closed_) return;
-    if (frame.size() >= kWriteChunk / 8) {
-      // A big frame becomes a chunk of its own: no copy.
-      queued_ += frame.size();
-      lastSent_ = SteadyClock::now();
-      ++net_.counters_.framesOut;
-      chunks_.push_back(std::move(frame));
-      chunks_.emplace_back();  // later frames must not be appended to it
+    const auto bytes = wire::tupleUpdateFrameBytes(tuple);
+    if (bytes >= kWriteChunk / 8) {
+      // A big frame becomes a chunk of its own: later frames are not
+      // appended to it (no copy of it when the next ones are queued).
+      chunks_.emplace_back().reserve(bytes);
+      wire::encodeTupleUpdate(envelope, incarnation, tuple, chunks_.back());
+      chunks_.emplace_back();
     } else {
-      enqueue(frame);
+      if (chunks_.empty() || chunks_.back().size() >= kWriteChunk) chunks_.emplace_back();
+      auto& chunk = chunks_.back();
+      // A stream of small frames fills the chunk without regrowing it.
+      if (chunk.capacity() < chunk.size() + bytes) chunk.reserve(kWriteChunk + kWriteChunk / 8);
+      wire::encodeTupleUpdate(envelope, incarnation, tuple, chunk);
     }
+    queued_ += bytes;
+    ++net_.counters_.framesOut;
     write();
   }
 
@@ -263,6 +281,10 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   }
 
   std::size_t backlog() const { return out_.size() + queued_; }
+  bool bytesWaiting() {
+    boost::system::error_code ec;
+    return socket_.available(ec) > 0 && !ec;
+  }
 
   Impl& net_;
   tcp::socket socket_;
@@ -286,7 +308,6 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
     if (chunks_.empty() || chunks_.back().size() >= kWriteChunk) chunks_.emplace_back();
     chunks_.back().append(frame);
     queued_ += frame.size();
-    lastSent_ = SteadyClock::now();
     ++net_.counters_.framesOut;
   }
 
@@ -298,6 +319,7 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
     chunks_.pop_front();
     queued_ -= out_.size();
     writing_ = true;
+    lastSent_ = SteadyClock::now();  // what is queued goes out now
     asio::async_write(
         socket_, asio::buffer(out_),
         [self = shared_from_this()](const boost::system::error_code& ec, std::size_t) {
@@ -704,13 +726,20 @@ std::shared_ptr<Network::Impl::Link> Network::Impl::linkTo(PeisId peer) const {
   return nullptr;
 }
 
+Network::Impl::Link* Network::Impl::findLink(PeisId peer) const {
+  for (const auto& link : links_) {
+    if (link->established_ && link->peer_.id == peer) return link.get();
+  }
+  return nullptr;
+}
+
 bool Network::Impl::forward(PeisId destination, std::string frame) {
   auto route = routes_.find(destination);
   if (route == routes_.end() || route->second.hops == 0) {
     ++counters_.unroutable;
     return false;
   }
-  auto link = linkTo(route->second.nextHop);
+  auto* link = findLink(route->second.nextHop);
   if (!link) {
     ++counters_.unroutable;
     return false;
@@ -731,15 +760,12 @@ bool Network::Impl::sendUpdate(PeisId destination, std::uint64_t incarnation, co
     ++counters_.unroutable;
     return false;
   }
-  auto link = linkTo(route->second.nextHop);
+  auto* link = findLink(route->second.nextHop);
   if (!link) {
     ++counters_.unroutable;
     return false;
   }
-  std::string frame;
-  wire::encodeTupleUpdate(wire::Envelope{self_, destination, wire::kDefaultTtl}, incarnation, tuple,
-                          frame);
-  link->sendUpdate(std::move(frame));
+  link->sendUpdate(wire::Envelope{self_, destination, wire::kDefaultTtl}, incarnation, tuple);
   return true;
 }
 
@@ -876,11 +902,17 @@ void Network::Impl::pingLoop() {
     const auto now = SteadyClock::now();
     auto links = links_;
     for (auto& link : links) {
-      if (now - link->lastHeard_ > config_.deadAfter) {
+      // Bytes waiting in the socket are a sign of life too: after this
+      // thread was starved (a busy host), the timer can run before the reads.
+      if (now - link->lastHeard_ > config_.deadAfter && !link->bytesWaiting()) {
         link->close("silent for more than " + std::to_string(config_.deadAfter.count()) + " ms");
         continue;
       }
-      if (!link->established_ || now - link->lastSent_ < config_.pingPeriod) continue;
+      // Ping only a link we have heard nothing on for a ping period: the
+      // Ping tells the peer we live, its Pong tells us. A link busy in
+      // one direction costs one Ping a period, an idle one a single
+      // exchange (whichever end asks first), not one from each end.
+      if (!link->established_ || now - link->lastHeard_ < config_.pingPeriod) continue;
       std::string out;
       wire::encode(
           wire::LinkMessage{wire::Ping{static_cast<std::uint64_t>(now.time_since_epoch().count())}},
@@ -916,17 +948,39 @@ void Network::Impl::beaconLoop() {
     const bool quiet = now - it->second.lastSeen > config_.beaconPeriod * 4;
     if (quiet && !routes_.count(it->first)) {
       it = beaconPeers_.erase(it);
-      membershipChanged_ = now;
+      membershipChanged(now);
     } else {
       ++it;
     }
   }
   evaluateDials();
   pruneLinks();
-  beaconTimer_.expires_after(config_.beaconPeriod);
+  // While the membership is stable the period doubles, up to
+  // kMaxBeaconBackoff times the configured one: N PEIS on a quiet network
+  // then cost each other N/8 beacons a second instead of N. A change
+  // (below, and in onBeacon) brings the configured period back.
+  if (now - membershipChanged_ >= beaconInterval_) {
+    beaconInterval_ = std::min(beaconInterval_ * 2, config_.beaconPeriod * kMaxBeaconBackoff);
+  } else {
+    beaconInterval_ = config_.beaconPeriod;
+  }
+  armBeacon(now + beaconInterval_);
+}
+
+void Network::Impl::armBeacon(SteadyClock::time_point at) {
+  beaconDue_ = at;
+  beaconTimer_.expires_at(at);
   beaconTimer_.async_wait([this](const boost::system::error_code& ec) {
     if (!ec && !stopped_) beaconLoop();
   });
+}
+
+// The membership changed: beacon at the configured period again.
+void Network::Impl::membershipChanged(SteadyClock::time_point now) {
+  membershipChanged_ = now;
+  if (beaconInterval_ == config_.beaconPeriod) return;
+  beaconInterval_ = config_.beaconPeriod;
+  if (udp_.is_open() && beaconDue_ > now + beaconInterval_) armBeacon(now + beaconInterval_);
 }
 
 void Network::Impl::sendBeacon(const udp::endpoint& to, bool wantsAnswer) {
@@ -964,7 +1018,7 @@ void Network::Impl::onBeacon(const Beacon& beacon, const udp::endpoint& from) {
   }
   auto [it, isNew] = beaconPeers_.try_emplace(beacon.id);
   isNew = isNew || it->second.incarnation != beacon.incarnation;
-  if (isNew) membershipChanged_ = SteadyClock::now();
+  if (isNew) membershipChanged(SteadyClock::now());
   it->second = BeaconPeer{from.address(), beacon.port, beacon.incarnation, SteadyClock::now()};
   if (isNew) {
     if (beacon.wantsAnswer) sendBeacon(from, false);

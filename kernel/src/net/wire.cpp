@@ -1,6 +1,8 @@
 // Wire frame encoder and checked decoder; layout in wire_format.h.
 #include "net/wire.h"
 
+#include <cstring>
+
 #include "peis/key.h"
 
 namespace peis::wire {
@@ -10,18 +12,9 @@ class Writer {
  public:
   explicit Writer(std::string& out) : out_(out) {}
   void u8(std::uint8_t v) { out_.push_back(static_cast<char>(v)); }
-  void u16(std::uint16_t v) {
-    u8(static_cast<std::uint8_t>(v >> 8));
-    u8(static_cast<std::uint8_t>(v));
-  }
-  void u32(std::uint32_t v) {
-    u16(static_cast<std::uint16_t>(v >> 16));
-    u16(static_cast<std::uint16_t>(v));
-  }
-  void u64(std::uint64_t v) {
-    u32(static_cast<std::uint32_t>(v >> 32));
-    u32(static_cast<std::uint32_t>(v));
-  }
+  void u16(std::uint16_t v) { put(v, 2); }
+  void u32(std::uint32_t v) { put(v, 4); }
+  void u64(std::uint64_t v) { put(v, 8); }
   void i32(std::int32_t v) { u32(static_cast<std::uint32_t>(v)); }
   void i64(std::int64_t v) { u64(static_cast<std::uint64_t>(v)); }
   void str8(std::string_view s) {
@@ -38,22 +31,69 @@ class Writer {
   }
 
  private:
+  // The low `n` bytes of `v`, most significant first, in one append.
+  void put(std::uint64_t v, int n) {
+    char bytes[8];
+    for (int i = 0; i < n; ++i) bytes[i] = static_cast<char>(v >> (8 * (n - 1 - i)));
+    out_.append(bytes, static_cast<std::size_t>(n));
+  }
   std::string& out_;
 };
 
+// Writes into memory already sized for the fields (the hot TupleUpdate path).
+class RawWriter {
+ public:
+  explicit RawWriter(char* at) : p_(at) {}
+  void u8(std::uint8_t v) { *p_++ = static_cast<char>(v); }
+  void u16(std::uint16_t v) { put(v, 2); }
+  void u32(std::uint32_t v) { put(v, 4); }
+  void u64(std::uint64_t v) { put(v, 8); }
+  void i32(std::int32_t v) { u32(static_cast<std::uint32_t>(v)); }
+  void i64(std::int64_t v) { u64(static_cast<std::uint64_t>(v)); }
+  void str8(std::string_view s) {
+    s = s.substr(0, 255);
+    u8(static_cast<std::uint8_t>(s.size()));
+    raw(s);
+  }
+  void str16(std::string_view s) {
+    s = s.substr(0, 65535);
+    u16(static_cast<std::uint16_t>(s.size()));
+    raw(s);
+  }
+  void bytes32(std::string_view s) {
+    u32(static_cast<std::uint32_t>(s.size()));
+    raw(s);
+  }
+  char* at() const { return p_; }
+
+ private:
+  void put(std::uint64_t v, int n) {
+    for (int i = 0; i < n; ++i) p_[i] = static_cast<char>(v >> (8 * (n - 1 - i)));
+    p_ += n;
+  }
+  void raw(std::string_view s) {
+    if (!s.empty()) std::memcpy(p_, s.data(), s.size());
+    p_ += s.size();
+  }
+  char* p_;
+};
+
 // Reads fields with bounds checks; the first failure sticks and names itself.
+// The checks are inline; building the reason is out of line (cold).
 class Reader {
  public:
   explicit Reader(std::string_view in) : in_(in) {}
-  bool ok() const { return error_.empty(); }
+  bool ok() const { return ok_; }
   const std::string& error() const { return error_; }
-  void fail(std::string why) {
-    if (error_.empty()) error_ = std::move(why);
+  [[gnu::cold, gnu::noinline]] void fail(std::string why) {
+    if (ok_) error_ = std::move(why);
+    ok_ = false;
   }
   bool need(std::size_t n, const char* what) {
-    if (!ok()) return false;
-    if (in_.size() - pos_ < n) {
-      fail(std::string("truncated ") + what);
+    if (!ok_) [[unlikely]]
+      return false;
+    if (in_.size() - pos_ < n) [[unlikely]] {
+      truncated(what);
       return false;
     }
     return true;
@@ -62,27 +102,9 @@ class Reader {
     if (!need(1, what)) return 0;
     return static_cast<std::uint8_t>(in_[pos_++]);
   }
-  std::uint16_t u16(const char* what) {
-    if (!need(2, what)) return 0;
-    std::uint16_t v = static_cast<std::uint16_t>((static_cast<std::uint8_t>(in_[pos_]) << 8) |
-                                                 static_cast<std::uint8_t>(in_[pos_ + 1]));
-    pos_ += 2;
-    return v;
-  }
-  std::uint32_t u32(const char* what) {
-    if (!need(4, what)) return 0;
-    std::uint32_t v = 0;
-    for (int i = 0; i < 4; ++i) v = (v << 8) | static_cast<std::uint8_t>(in_[pos_ + i]);
-    pos_ += 4;
-    return v;
-  }
-  std::uint64_t u64(const char* what) {
-    if (!need(8, what)) return 0;
-    std::uint64_t v = 0;
-    for (int i = 0; i < 8; ++i) v = (v << 8) | static_cast<std::uint8_t>(in_[pos_ + i]);
-    pos_ += 8;
-    return v;
-  }
+  std::uint16_t u16(const char* what) { return static_cast<std::uint16_t>(get(2, what)); }
+  std::uint32_t u32(const char* what) { return static_cast<std::uint32_t>(get(4, what)); }
+  std::uint64_t u64(const char* what) { return get(8, what); }
   std::int32_t i32(const char* what) { return static_cast<std::int32_t>(u32(what)); }
   std::int64_t i64(const char* what) { return static_cast<std::int64_t>(u64(what)); }
   std::string bytes(std::size_t n, const char* what) {
@@ -95,18 +117,33 @@ class Reader {
   std::string str16(const char* what) { return bytes(u16(what), what); }
   PeisId id(const char* what) {
     const auto v = i32(what);
-    if (ok() && !isValidPeisId(v)) fail(std::string("invalid ") + what + " " + std::to_string(v));
+    if (ok_ && !isValidPeisId(v)) [[unlikely]]
+      invalid(what, v);
     return v;
   }
   void end() {
-    if (ok() && pos_ != in_.size()) {
+    if (ok_ && pos_ != in_.size()) {
       fail(std::to_string(in_.size() - pos_) + " unexpected trailing bytes");
     }
   }
 
  private:
+  std::uint64_t get(int n, const char* what) {
+    if (!need(static_cast<std::size_t>(n), what)) return 0;
+    std::uint64_t v = 0;
+    for (int i = 0; i < n; ++i) v = (v << 8) | static_cast<std::uint8_t>(in_[pos_ + i]);
+    pos_ += static_cast<std::size_t>(n);
+    return v;
+  }
+  [[gnu::cold, gnu::noinline]] void truncated(const char* what) {
+    fail(std::string("truncated ") + what);
+  }
+  [[gnu::cold, gnu::noinline]] void invalid(const char* what, std::int32_t v) {
+    fail(std::string("invalid ") + what + " " + std::to_string(v));
+  }
   std::string_view in_;
   std::size_t pos_ = 0;
+  bool ok_ = true;
   std::string error_;
 };
 
@@ -394,15 +431,35 @@ void encode(const RoutedMessage& message, std::string& out) {
   endFrame(out, start);
 }
 
+std::size_t tupleUpdateFrameBytes(const Tuple& tuple) {
+  // length, type, envelope (9), incarnation (8), tuple (48 + K + M + D).
+  return kFrameHeaderBytes + 1 + 9 + 8 + 48 + std::min<std::size_t>(tuple.key.size(), 65535) +
+         std::min<std::size_t>(tuple.mimetype.size(), 255) + tuple.data.size();
+}
+
 void encodeTupleUpdate(const Envelope& envelope, std::uint64_t ownerIncarnation, const Tuple& tuple,
                        std::string& out) {
-  std::size_t start;
-  beginFrame(out, MessageType::TupleUpdate, start);
-  Writer w(out);
-  writeEnvelope(w, envelope);
+  // Sized once and written in place: this runs once per update sent.
+  const auto bytes = tupleUpdateFrameBytes(tuple);
+  const auto start = out.size();
+  out.resize(start + bytes);
+  RawWriter w(out.data() + start);
+  w.u32(static_cast<std::uint32_t>(bytes - kFrameHeaderBytes));
+  w.u8(static_cast<std::uint8_t>(MessageType::TupleUpdate));
+  w.i32(envelope.source);
+  w.i32(envelope.destination);
+  w.u8(envelope.ttl);
   w.u64(ownerIncarnation);
-  writeTuple(w, tuple);
-  endFrame(out, start);
+  w.i32(tuple.owner);
+  w.i32(tuple.creator);
+  w.str16(tuple.key);
+  w.str8(tuple.mimetype);
+  w.u8(static_cast<std::uint8_t>(tuple.encoding));
+  w.i64(micros(tuple.ts_write));
+  w.i64(micros(tuple.ts_user));
+  w.i64(micros(tuple.ts_expire));
+  w.u64(tuple.seqno);
+  w.bytes32(tuple.data);
 }
 
 std::string encodeFrame(const RoutedMessage& message) {

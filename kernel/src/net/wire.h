@@ -119,7 +119,9 @@ void encode(const RoutedMessage& message, std::string& out);
 // The frame for a routed body with its envelope; the body bytes are built
 // once and can be re-enveloped per destination with reEnvelope().
 std::string encodeFrame(const RoutedMessage& message);
-// A TupleUpdate frame straight from a stored tuple (no intermediate copy).
+// A TupleUpdate frame straight from a stored tuple (no intermediate copy),
+// appended to `out`; tupleUpdateFrameBytes() is its size, length included.
+std::size_t tupleUpdateFrameBytes(const Tuple& tuple);
 void encodeTupleUpdate(const Envelope& envelope, std::uint64_t ownerIncarnation, const Tuple& tuple,
                        std::string& out);
 // Rewrites the envelope of an encoded routed frame in place.
