@@ -16,6 +16,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <functional>
@@ -407,8 +408,21 @@ ScaleResult scale(int n, const std::string& ecology) {
   }
   peis::Kernel kernel(hostOptions(ecology, 1, true));
   kernel.subscribe(peis::Pattern("v"));
+  // PEIS_BENCH_PROGRESS=1: how many values (and peers) were seen when, to stderr.
+  const bool progress = std::getenv("PEIS_BENCH_PROGRESS") != nullptr;
+  auto lastReport = Clock::now();
   const bool all = waitFor(
-      [&] { return kernel.find(peis::Pattern("v")).size() >= static_cast<std::size_t>(n); }, 60s);
+      [&] {
+        const auto seen = kernel.find(peis::Pattern("v")).size();
+        if (progress && Clock::now() - lastReport >= 250ms) {
+          lastReport = Clock::now();
+          std::fprintf(stderr, "scale %d: %.2f s: %zu values, %zu peers\n", n,
+                       std::chrono::duration<double>(lastReport - start).count(), seen,
+                       kernel.peers().size());
+        }
+        return seen >= static_cast<std::size_t>(n);
+      },
+      60s);
   if (all) result.secondsToAll = std::chrono::duration<double>(Clock::now() - start).count();
   std::this_thread::sleep_for(4s);  // let start-up work (and link pruning) finish first
   std::vector<long> before;
