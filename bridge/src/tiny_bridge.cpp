@@ -19,6 +19,7 @@
 #include "key_registry.h"
 #include "log.h"
 #include "peis/error.h"
+#include "peis/key.h"
 #include "peis/pattern.h"
 #include "radio_link.h"
 #include "tiny_kernel.h"
@@ -384,7 +385,10 @@ struct TinyBridge::Impl {
       decide(Error(ErrorCode::Unreachable, "tiny node " + std::to_string(id) + " is not heard"));
       return;
     }
-    const auto before = registry.entries().size();
+    // Key parts that get an index now are published once it is given.
+    std::vector<std::string> fresh;
+    for (const auto part : splitKey(t.key))
+      if (!part.empty() && part[0] != '#' && !registry.find(part)) fresh.emplace_back(part);
     std::string why;
     std::optional<tiny_key> key;
     try {
@@ -392,11 +396,13 @@ struct TinyBridge::Impl {
     } catch (const Error& e) {
       why = e.what();
     }
-    if (registry.entries().size() != before) {
-      for (const auto& [name, index] : registry.entries()) publishKey(name, index);
-      counters.keysAdded += registry.entries().size() - before;
-      log::info(kernel.id(), "tinybridge: key registry grew for '" + t.key + "' (now " +
-                                 std::to_string(registry.entries().size()) + " keys)");
+    for (const auto& name : fresh) {
+      const auto index = registry.find(name);
+      if (!index) continue;  // the mapping failed: nothing was interned
+      publishKey(name, *index);
+      ++counters.keysAdded;
+      log::info(kernel.id(), "tinybridge: key '" + name + "' is tiny index " +
+                                 std::to_string(*index) + " from now on");
     }
     if (!key) {
       ++counters.writesRefused;
@@ -485,11 +491,11 @@ struct TinyBridge::Impl {
 
   // A full PEIS's tuple to a tiny subscriber.
   void forward(std::uint16_t subscriber, const Tuple& t) {
-    if (nodes.count(static_cast<std::uint16_t>(t.owner)) && t.owner <= 0xFFFE) return;  // on air
     if (t.owner > 0xFFFE) {
       ++counters.forwardUnmappable;
       return;
     }
+    if (nodes.count(static_cast<std::uint16_t>(t.owner))) return;  // a tiny node's: on the air
     std::string why;
     auto key = tinyKeyOf(registry, t.key, false, &why);
     tiny_tuple out{};

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "peis/error.h"
+#include "support/temp_dir.h"
 
 using Catch::Matchers::Contains;
 using peis::bridge::fullKeyOf;
@@ -18,27 +19,9 @@ using peis::bridge::KeyIndex;
 using peis::bridge::KeyRegistry;
 using peis::bridge::RegistrySeed;
 using peis::bridge::tinyKeyOf;
+using peis::test::TempDir;
 
 namespace {
-
-// A directory of its own under the temp directory, removed with what it
-// holds when the test ends.
-struct TempDir {
-  std::filesystem::path path;
-  TempDir() {
-    std::random_device random;
-    const auto suffix = std::to_string(random()) + std::to_string(random());
-    path = std::filesystem::temp_directory_path() / ("peis_key_mapping_test_" + suffix);
-    std::filesystem::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path, ignored);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  std::string file(const std::string& name) const { return (path / name).string(); }
-};
 
 // The seed of tiny-peis-kernel.txt section V.
 void seedLightAndTilt(KeyRegistry& registry) {

@@ -15,6 +15,7 @@
 
 #include "peis/error.h"
 #include "support/error_matchers.h"
+#include "support/temp_dir.h"
 
 using Catch::Matchers::Contains;
 using Catch::Matchers::StartsWith;
@@ -24,34 +25,11 @@ using peis::bridge::KeyIndex;
 using peis::bridge::KeyRegistry;
 using peis::bridge::RegistrySeed;
 using peis::test::HasCode;
+using peis::test::TempDir;
 
 namespace {
 
 using Entries = std::vector<std::pair<std::string, KeyIndex>>;
-
-// A directory of its own under the temp directory, removed with what it
-// holds when the test ends.
-struct TempDir {
-  std::filesystem::path path;
-  TempDir() {
-    std::random_device random;
-    const auto suffix = std::to_string(random()) + std::to_string(random());
-    path = std::filesystem::temp_directory_path() / ("peis_key_registry_test_" + suffix);
-    std::filesystem::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path, ignored);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-  std::string file(const std::string& name) const { return (path / name).string(); }
-  // Writes `text` to the file `name`; returns its path.
-  std::string write(const std::string& name, const std::string& text) const {
-    std::ofstream(path / name, std::ios::binary) << text;
-    return file(name);
-  }
-};
 
 RegistrySeed seedOf(Entries keys) {
   RegistrySeed seed;

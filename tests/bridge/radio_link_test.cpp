@@ -20,6 +20,7 @@
 
 #include "peis/error.h"
 #include "support/error_matchers.h"
+#include "support/temp_dir.h"
 #include "support/wait_for.h"
 #include "tiny_serial.h"
 
@@ -29,25 +30,9 @@ using peis::ErrorCode;
 using peis::bridge::Frame;
 using peis::bridge::openRadioLink;
 using peis::test::HasCode;
+using peis::test::TempDir;
 
 namespace {
-
-// A directory of its own under the temp directory (short enough for a
-// socket path), removed with what it holds when the test ends.
-struct TempDir {
-  std::filesystem::path path;
-  TempDir() {
-    std::random_device random;
-    path = std::filesystem::temp_directory_path() / ("peis_link_" + std::to_string(random()));
-    std::filesystem::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    std::filesystem::remove_all(path, ignored);
-  }
-  TempDir(const TempDir&) = delete;
-  TempDir& operator=(const TempDir&) = delete;
-};
 
 // A listening UNIX stream socket: the other end of a serial link (an
 // emulated MCU's UART).

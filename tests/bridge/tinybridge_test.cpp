@@ -19,6 +19,7 @@
 #include "host_medium.h"
 #include "peis/kernel.h"
 #include "support/process.h"
+#include "support/temp_dir.h"
 #include "support/wait_for.h"
 #include "tiny_tuple.h"
 
@@ -106,11 +107,7 @@ std::string buildPath(const std::string& relative) {
 struct Ecology {
   std::string name = uniqueEcology("tiny");
   unsigned mediumPort = randomMediumPort();
-  std::filesystem::path dir =
-      std::filesystem::temp_directory_path() /
-      ("peis-tinybridge-test-" + std::to_string(getpid()) + "-" + std::to_string(mediumPort));
-  Ecology() { std::filesystem::create_directories(dir); }
-  ~Ecology() { std::filesystem::remove_all(dir); }
+  peis::test::TempDir dir{"peis_tinybridge_test"};
 
   Process::Environment env(std::vector<std::pair<std::string, std::string>> extra = {}) const {
     extra.emplace_back("TINY_MEDIUM_PORT", std::to_string(mediumPort));
@@ -127,7 +124,7 @@ struct Ecology {
         std::vector<std::string>{buildPath("bridge/peis-tinybridge"), "--link",
                                  "medium:" + std::to_string(mediumPort) + ":8", "--keys",
                                  std::string(PEIS_SOURCE_DIR) + "/bridge/keys.yaml", "--registry",
-                                 (dir / "keys.sqlite").string(), "--peis-ecology", name},
+                                 dir.file("keys.sqlite"), "--peis-ecology", name},
         env());
   }
   std::unique_ptr<Process> fullPeis(const std::string& id) const {
@@ -306,6 +303,19 @@ TEST_CASE("a write to a tiny node that went silent fails, and the node leaves th
     for (const auto& frame : garbage) sniffer.send(frame);
   auto still = eco.cli({"get", "4.kernel.name", "--wait", "15"});
   CHECK(still.out == "blind\n");
+
+  // Writes that cannot reach a tiny node are refused at once, with the reason.
+  auto refused = [&](std::vector<std::string> args, const std::string& reason) {
+    args.insert(args.begin(), "set");
+    const auto r = eco.cli(args);
+    INFO(args[1] << ": " << r.err);
+    CHECK(r.status != 0);
+    CHECK(r.err.find(reason) != std::string::npos);
+  };
+  refused({"4.a.b.c.d.e.f.g.h", "1"}, "a tiny key has 1..7 parts");
+  refused({"4.#0", "1"}, "not a raw index");
+  refused({"4.BlindPosition", std::string(69, 'x')}, "at most 68 data bytes");
+  refused({"4.tiny.bridge", "1"}, "kept by the tinybridge");
 
   blind->kill(SIGKILL);
   REQUIRE(blind->wait(kDeadline).has_value());

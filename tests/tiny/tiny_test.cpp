@@ -564,6 +564,57 @@ TEST_CASE("tiny: the static tables are bounded: store, cache, subscriptions", "[
   CHECK(tiny_subscribe(watcher, 3, &first, 0, nullptr, nullptr) == TINY_ERR_FULL);
 }
 
+TEST_CASE("tiny: a WRITE frame sets the owner's tuple, which publishes it; others are refused",
+          "[unit][tiny]") {
+  Bus bus;
+  tiny_kernel* owner = bus.add(3);
+  tiny_kernel* watcher = bus.add(4);
+  Seen seen;  // frames below are injected as if sent by node 9
+  tiny_key tilt = tiny_key1(43);
+  REQUIRE(tiny_subscribe(watcher, 3, &tilt, 0, &Seen::cb, &seen) >= 0);
+  REQUIRE(tiny_subscribe(owner, 3, &tilt, 0, &Seen::cb, &seen) >= 0);  // its own callback
+  bus.run(20);
+
+  auto request = makeTuple(3, {43}, "55");
+  request.creator = 9;
+  Bytes frame(TINY_FRAME_MAX);
+  frame.resize(tiny_encode_write_frame(frame.data(), 9, 1, &request));
+  REQUIRE(frame.size() == TINY_FRAME_HEADER_SIZE + TINY_TUPLE_HEADER_SIZE + 2 + 2);
+  CHECK(frame[0] == TINY_FRAME_WRITE);
+  CHECK((frame[4] == 3 && frame[5] == 0));  // dst: the owner
+  bus.node(owner).inbox.push_back(frame);
+  bus.run(20);
+
+  const tiny_tuple* now = tiny_get(owner, 3, &tilt);
+  REQUIRE(now != nullptr);
+  CHECK(dataOf(now) == "55");
+  CHECK(now->creator == 9);  // the writer
+  CHECK(now->seqno == 1);    // the owner's own numbering
+  CHECK(tiny_get_stats(owner)->writes_accepted == 1);
+  REQUIRE(tiny_get(watcher, 3, &tilt) != nullptr);  // published to the subscriber
+  CHECK(dataOf(tiny_get(watcher, 3, &tilt)) == "55");
+  CHECK(seen.tuples.size() == 2);  // the owner's callback and the watcher's
+
+  // A write for another owner (addressed to us by mistake) is refused.
+  auto foreign = makeTuple(5, {43}, "1");
+  Bytes wrong(TINY_FRAME_MAX);
+  wrong.resize(tiny_encode_write_frame(wrong.data(), 9, 2, &foreign));
+  wrong[4] = 3;  // dst 3, owner 5
+  bus.node(owner).inbox.push_back(wrong);
+  // A new key when the store is full is refused too.
+  for (uint16_t i = 0; tiny_own_count(owner) < TINY_MAX_TUPLES; ++i) {
+    tiny_key k = tiny_key1(static_cast<uint16_t>(100 + i));
+    REQUIRE(tiny_set(owner, &k, "v", 1) == TINY_OK);
+  }
+  auto fresh = makeTuple(3, {999}, "1");
+  Bytes full(TINY_FRAME_MAX);
+  full.resize(tiny_encode_write_frame(full.data(), 9, 3, &fresh));
+  bus.node(owner).inbox.push_back(full);
+  bus.run(20);
+  CHECK(tiny_get_stats(owner)->writes_refused == 2);
+  CHECK(dataOf(tiny_get(owner, 3, &tilt)) == "55");
+}
+
 TEST_CASE("tiny: seqno ordering per (owner, key): old and repeated values are stale",
           "[unit][tiny]") {
   Bus bus;

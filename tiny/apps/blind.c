@@ -8,14 +8,6 @@
 
 uint16_t app_default_id(void) { return BLIND_ID; }
 
-/* Tells the ecology where the blind is now (key 46, BlindPosition). */
-static void publish_position(tiny_kernel *k, long position) {
-  char text[12];
-  tiny_key key = tiny_key1(TINY_KEY_BLIND_POSITION);
-  uint8_t n = tiny_format_long(position, text, sizeof text);
-  (void)tiny_set(k, &key, text, n);
-}
-
 static void on_tilt(tiny_kernel *k, const tiny_tuple *t, void *user) {
   long tilt;
   (void)user;
@@ -28,7 +20,7 @@ static void on_tilt(tiny_kernel *k, const tiny_tuple *t, void *user) {
   } else {
     tiny_port_report("blind open", tilt);
   }
-  publish_position(k, tilt);
+  (void)tiny_set_long(k, TINY_KEY_BLIND_POSITION, tilt); /* tell the ecology */
 }
 
 void app_setup(tiny_kernel *k) {

@@ -9,14 +9,6 @@
 
 uint16_t app_default_id(void) { return LAMP_ID; }
 
-/* Tells the ecology what the dimmer does now (key 45, LampLevel). */
-static void publish_level(tiny_kernel *k, long level) {
-  char text[12];
-  tiny_key key = tiny_key1(TINY_KEY_LAMP_LEVEL);
-  uint8_t n = tiny_format_long(level, text, sizeof text);
-  (void)tiny_set(k, &key, text, n);
-}
-
 static void on_light(tiny_kernel *k, const tiny_tuple *t, void *user) {
   long level;
   (void)user;
@@ -26,8 +18,8 @@ static void on_light(tiny_kernel *k, const tiny_tuple *t, void *user) {
   }
   if (level < 0) level = 0;
   if (level > 100) level = 100;
-  tiny_port_report("lamp light", level); /* drive the dimmer here */
-  publish_level(k, level);
+  tiny_port_report("lamp light", level);              /* drive the dimmer here */
+  (void)tiny_set_long(k, TINY_KEY_LAMP_LEVEL, level); /* tell the ecology */
 }
 
 void app_setup(tiny_kernel *k) {

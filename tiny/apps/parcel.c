@@ -18,18 +18,13 @@ void app_setup(tiny_kernel *k) { (void)k; }
 
 void app_loop(tiny_kernel *k, uint32_t now_ms) {
   long w, diff;
-  char text[12];
-  tiny_key key;
-  uint8_t n;
   if (posted && (uint32_t)(now_ms - last_sample_ms) < PARCEL_SAMPLE_MS) return;
   last_sample_ms = now_ms;
   w = tiny_port_sensor(TINY_SENSOR_WEIGHT);
   diff = w > weight ? w - weight : weight - w;
   if (posted && diff <= PARCEL_DEADBAND && (uint32_t)(now_ms - last_post_ms) < PARCEL_REFRESH_MS)
     return;
-  key = tiny_key1(TINY_KEY_WEIGHT);
-  n = tiny_format_long(w, text, sizeof text);
-  if (tiny_set(k, &key, text, n) == TINY_OK) {
+  if (tiny_set_long(k, TINY_KEY_WEIGHT, w) == TINY_OK) {
     posted = 1;
     weight = w;
     last_post_ms = now_ms;

@@ -15,10 +15,7 @@ static int tilt = -1; /* last TiltValue posted, -1 = none yet */
 uint16_t app_default_id(void) { return PLANT_ID; }
 
 static void post_tilt(tiny_kernel *k, int value) {
-  char text[12];
-  tiny_key key = tiny_key1(TINY_KEY_TILT_VALUE);
-  uint8_t n = tiny_format_long(value, text, sizeof text);
-  if (tiny_set(k, &key, text, n) == TINY_OK) {
+  if (tiny_set_long(k, TINY_KEY_TILT_VALUE, value) == TINY_OK) {
     tilt = value;
     tiny_port_report("plant tilt", value);
   }

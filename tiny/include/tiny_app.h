@@ -46,6 +46,8 @@ long tiny_port_sensor(uint8_t channel);
 /* ---- helpers for device programs (tiny_app.c) -------------------------- */
 /* Writes v as ASCII decimal into buf (cap >= 12); returns the length. */
 uint8_t tiny_format_long(long v, char *buf, uint8_t cap);
+/* Sets own tuple [key] to v as ASCII decimal text; returns tiny_set's result. */
+int tiny_set_long(tiny_kernel *k, uint16_t key, long v);
 /* Parses ASCII decimal data (optional '-'); returns 0 on success. */
 int tiny_parse_long(const uint8_t *data, uint8_t len, long *out);
 

@@ -13,6 +13,7 @@
 #ifndef TINY_SERIAL_H
 #define TINY_SERIAL_H
 
+#include "tiny_kernel.h"
 #include "tiny_tuple.h"
 
 #ifdef __cplusplus
@@ -68,6 +69,19 @@ void tiny_serial_ring_put(tiny_serial_ring *ring, uint8_t byte);
  * (which may exceed cap: the kernel then drops and counts it), or 0. */
 uint8_t tiny_serial_ring_recv(tiny_serial_ring *ring, tiny_serial_rx *rx, uint8_t *buf,
                               uint8_t cap);
+
+/* A UART used as the radio: the port's blocking byte transmit, and the ring
+ * its receive interrupt fills with the decoder that reads it. */
+typedef struct tiny_serial_port {
+  void (*put)(uint8_t byte);
+  tiny_serial_ring *ring;
+  tiny_serial_rx *rx;
+} tiny_serial_port;
+
+/* The kernel's HAL on a serial port (ctx = port): send frames them with
+ * tiny_serial_send, recv takes them with tiny_serial_ring_recv. now_ms is
+ * the port's clock (may be NULL). */
+tiny_hal tiny_serial_hal(tiny_serial_port *port, uint32_t (*now_ms)(void *ctx));
 
 #ifdef __cplusplus
 }

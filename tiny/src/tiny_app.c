@@ -15,6 +15,13 @@ uint8_t tiny_format_long(long v, char *buf, uint8_t cap) {
   return out;
 }
 
+int tiny_set_long(tiny_kernel *k, uint16_t key, long v) {
+  char text[12];
+  tiny_key k1 = tiny_key1(key);
+  uint8_t n = tiny_format_long(v, text, sizeof text);
+  return tiny_set(k, &k1, text, n);
+}
+
 int tiny_parse_long(const uint8_t *data, uint8_t len, long *out) {
   uint8_t i = 0;
   int neg = 0;

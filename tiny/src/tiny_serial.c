@@ -89,3 +89,22 @@ uint8_t tiny_serial_ring_recv(tiny_serial_ring *ring, tiny_serial_rx *rx, uint8_
   }
   return 0;
 }
+
+static int serial_send(void *ctx, const uint8_t *frame, uint8_t len) {
+  const tiny_serial_port *port = (const tiny_serial_port *)ctx;
+  return tiny_serial_send(port->put, frame, len);
+}
+
+static int serial_recv(void *ctx, uint8_t *buf, uint8_t cap) {
+  tiny_serial_port *port = (tiny_serial_port *)ctx;
+  return tiny_serial_ring_recv(port->ring, port->rx, buf, cap);
+}
+
+tiny_hal tiny_serial_hal(tiny_serial_port *port, uint32_t (*now_ms)(void *ctx)) {
+  tiny_hal hal;
+  hal.ctx = port;
+  hal.send = serial_send;
+  hal.recv = serial_recv;
+  hal.now_ms = now_ms;
+  return hal;
+}

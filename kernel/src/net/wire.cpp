@@ -150,7 +150,9 @@ class Reader {
 std::int64_t micros(Timestamp t) { return t.time_since_epoch().count(); }
 Timestamp fromMicros(std::int64_t v) { return Timestamp(std::chrono::microseconds(v)); }
 
-void writeTuple(Writer& w, const Tuple& t) {
+// The tuple's fields, for the growing Writer and the in-place RawWriter.
+template <typename W>
+void writeTuple(W& w, const Tuple& t) {
   w.i32(t.owner);
   w.i32(t.creator);
   w.str16(t.key);
@@ -450,16 +452,7 @@ void encodeTupleUpdate(const Envelope& envelope, std::uint64_t ownerIncarnation,
   w.i32(envelope.destination);
   w.u8(envelope.ttl);
   w.u64(ownerIncarnation);
-  w.i32(tuple.owner);
-  w.i32(tuple.creator);
-  w.str16(tuple.key);
-  w.str8(tuple.mimetype);
-  w.u8(static_cast<std::uint8_t>(tuple.encoding));
-  w.i64(micros(tuple.ts_write));
-  w.i64(micros(tuple.ts_user));
-  w.i64(micros(tuple.ts_expire));
-  w.u64(tuple.seqno);
-  w.bytes32(tuple.data);
+  writeTuple(w, tuple);
 }
 
 std::string encodeFrame(const RoutedMessage& message) {

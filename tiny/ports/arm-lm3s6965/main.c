@@ -84,15 +84,7 @@ static void put_byte(uint8_t b) {
   UART0_DR = b;
 }
 
-static int uart_send(void *ctx, const uint8_t *frame, uint8_t len) {
-  (void)ctx;
-  return tiny_serial_send(put_byte, frame, len);
-}
-
-static int uart_recv(void *ctx, uint8_t *buf, uint8_t cap) {
-  (void)ctx;
-  return tiny_serial_ring_recv(&ring, &decoder, buf, cap);
-}
+static tiny_serial_port uart = {put_byte, &ring, &decoder};
 
 static void uart_init(void) {
   /* Baud divisor = CPU / (16 * baud), fraction in 1/64ths, rounded. */
@@ -147,10 +139,7 @@ int main(void) {
   SYST_CVR = 0;
   SYST_CSR = 7u; /* core clock, interrupt, enable */
   uart_init();
-  hal.ctx = 0;
-  hal.send = uart_send;
-  hal.recv = uart_recv;
-  hal.now_ms = now_ms;
+  hal = tiny_serial_hal(&uart, now_ms);
   tiny_init(&kernel, id, &hal);
   app_setup(&kernel);
   for (;;) {

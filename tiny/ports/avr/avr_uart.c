@@ -43,24 +43,9 @@ static void put_byte(uint8_t b) {
   UDR0 = b;
 }
 
-static int uart_send(void *ctx, const uint8_t *frame, uint8_t len) {
-  (void)ctx;
-  return tiny_serial_send(put_byte, frame, len);
-}
+static tiny_serial_port uart = {put_byte, &ring, &decoder};
 
-static int uart_recv(void *ctx, uint8_t *buf, uint8_t cap) {
-  (void)ctx;
-  return tiny_serial_ring_recv(&ring, &decoder, buf, cap);
-}
-
-tiny_hal avr_uart_hal(void) {
-  tiny_hal hal;
-  hal.ctx = 0;
-  hal.send = uart_send;
-  hal.recv = uart_recv;
-  hal.now_ms = 0;
-  return hal;
-}
+tiny_hal avr_uart_hal(void) { return tiny_serial_hal(&uart, 0); }
 
 avr_uart_stats avr_uart_get_stats(void) {
   avr_uart_stats stats;

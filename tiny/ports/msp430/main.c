@@ -118,15 +118,7 @@ static void put_byte(uint8_t b) {
   U1TXBUF = b;
 }
 
-static int uart_send(void *ctx, const uint8_t *frame, uint8_t len) {
-  (void)ctx;
-  return tiny_serial_send(put_byte, frame, len);
-}
-
-static int uart_recv(void *ctx, uint8_t *buf, uint8_t cap) {
-  (void)ctx;
-  return tiny_serial_ring_recv(&ring, &decoder, buf, cap);
-}
+static tiny_serial_port uart = {put_byte, &ring, &decoder};
 
 /* 9600 8N1 from ACLK = 32768 Hz: UBR = 3, modulation 0x4A (user's guide). */
 static void uart_init(void) {
@@ -180,10 +172,7 @@ int main(void) {
   clock_init();
   uart_init();
   __asm__ volatile("eint\n\tnop" : : : "memory");
-  hal.ctx = 0;
-  hal.send = uart_send;
-  hal.recv = uart_recv;
-  hal.now_ms = now_ms;
+  hal = tiny_serial_hal(&uart, now_ms);
   tiny_init(&kernel, id, &hal);
   app_setup(&kernel);
   for (;;) {
