@@ -38,6 +38,7 @@ namespace {
 constexpr std::size_t kDeliveriesPerTurn = 256;  // then let timers and posts run
 constexpr std::size_t kDeliveriesPerLock = 32;   // taken from the queue per lock
 constexpr std::size_t kMessagesPerTurn = 1024;   // network sends per turn, likewise
+constexpr std::size_t kBytesPerTurn = 1u << 20;  // of tuple updates per turn, likewise
 
 PeisId pickId(const Options& options) {
   if (options.id) return *options.id;
@@ -301,7 +302,7 @@ struct Kernel::Impl {
     outgoing.clear();
     {
       std::lock_guard lock(mu);
-      replication.takeOutbox(outgoing, kMessagesPerTurn);
+      replication.takeOutbox(outgoing, kMessagesPerTurn, kBytesPerTurn);
       if (replication.hasOutgoing()) {
         asio::post(io, [this] { flush(); });  // more: let the sockets drain first
       } else {
@@ -310,7 +311,9 @@ struct Kernel::Impl {
     }
     for (auto& out : outgoing) {
       if (!network) break;
-      if (out.update) {
+      if (out.frameCount > 0) {
+        network->sendFrames(out.destination, std::move(out.frames), out.frameCount);
+      } else if (out.update) {
         network->sendUpdate(out.destination, incarnation, *out.update);
       } else {
         network->send(wire::RoutedMessage{wire::Envelope{0, out.destination, wire::kDefaultTtl},
@@ -475,6 +478,7 @@ struct Kernel::Impl {
     const PeisId old = id;
     id = pick(device);
     space.changeSelf(id);
+    replication.onSelfChanged();
     space.setKernelTuple(special::kId, std::to_string(id.load()));
     log::warn(id, "re-picked id " + std::to_string(id.load()) + " (" + std::to_string(old) +
                       " belongs to a PEIS that joined earlier)");

@@ -27,9 +27,11 @@ class Replication {
  public:
   using SteadyTime = std::chrono::steady_clock::time_point;
 
-  // One message to send: a tuple update (encoded straight from the stored
-  // tuple) or another routed body.
-  // Small (32 bytes): the outbox moves many of them per flush.
+  // One entry of the outbox, for one destination: a run of tuple updates
+  // already encoded as whole frames (the usual case: encoded on the writing
+  // thread, so the kernel thread only hands bytes to a link), one update
+  // kept as a tuple (queued while the outbox is backed up, so a newer value
+  // can still replace it; encoded when sent), or another routed body.
   struct Outgoing {
     Outgoing() = default;
     Outgoing(PeisId to, TuplePtr tuple) : destination(to), update(std::move(tuple)) {}
@@ -38,6 +40,8 @@ class Replication {
     PeisId destination = 0;
     TuplePtr update;
     std::unique_ptr<wire::RoutedBody> body;
+    std::string frames;  // whole TupleUpdate frames, length prefixes included
+    std::uint32_t frameCount = 0;
   };
 
   Replication(TupleSpace& space, std::uint64_t incarnation, std::chrono::milliseconds lease);
@@ -71,14 +75,24 @@ class Replication {
   // Also subscribe to the meta tuple of an indirect callback when remote.
   void trackIndirectMeta(CallbackId indirect, const TupleRef& meta);
 
-  // Takes up to `most` messages, oldest first.
+  // Takes up to `most` outbox entries, oldest first, and stops early once
+  // the entries taken carry `mostBytes` of updates.
   std::vector<Outgoing> takeOutbox(std::size_t most = SIZE_MAX);
   // The same, appended to `out` (whose memory the caller reuses).
-  void takeOutbox(std::vector<Outgoing>& out, std::size_t most);
+  void takeOutbox(std::vector<Outgoing>& out, std::size_t most, std::size_t mostBytes = SIZE_MAX);
   // Updates replaced in the outbox by a newer value of the same tuple.
   std::uint64_t coalesced() const { return coalesced_; }
-  // Outbox length above which updates to the same (destination, key) coalesce.
-  static constexpr std::size_t kCoalesceOutboxAbove = 1 << 16;
+  // Bytes of tuple updates waiting in the outbox above which an update is
+  // queued as a tuple (and its position remembered), and above which a newer
+  // value replaces a remembered one still waiting (docs/protocol.md §13).
+  static constexpr std::size_t kTrackOutboxAbove = 2u << 20;
+  static constexpr std::size_t kCoalesceOutboxAbove = 4u << 20;
+  // Encoded frames per outbox entry, at most (about; one frame may exceed it).
+  static constexpr std::size_t kFramesPerEntryBytes = 64u << 10;
+  std::size_t outboxBytes() const { return outboxBytes_; }
+  // This PEIS took a new id: frames encoded with the old one are dropped
+  // (subscribers re-sync with the new id).
+  void onSelfChanged();
   bool hasOutgoing() const { return !outbox_.empty(); }
   std::uint64_t staleDropped() const { return staleDropped_; }
   // Renewals that showed a subscriber missing values, answered by a resync.
@@ -109,7 +123,10 @@ class Replication {
   std::set<PeisId> reachable_;
   void push(Outgoing outgoing);
   void pushUpdate(PeisId destination, const TuplePtr& tuple);
+  void appendFrame(PeisId destination, const Tuple& tuple);
+  void forgetPending(PeisId destination);
   std::deque<Outgoing> outbox_;
+  std::size_t outboxBytes_ = 0;   // of updates (frames and tuples) waiting
   std::uint64_t outboxBase_ = 0;  // absolute index of outbox_.front()
   std::map<std::pair<PeisId, std::string>, std::uint64_t> pendingUpdates_;
   std::uint64_t coalesced_ = 0;

@@ -242,11 +242,18 @@ void TupleSpace::remove(std::map<TupleRef, TuplePtr>::iterator it, std::uint64_t
 }
 
 bool TupleSpace::accept(Tuple&& tuple) {
-  if (tuple.owner == self_ || !isValidPeisId(tuple.owner) || keyProblem(tuple.key)) return false;
+  if (tuple.owner == self_ || !isValidPeisId(tuple.owner)) return false;
   checkData(tuple.data.size());
   auto it = tuples_.find(refOf(tuple));
-  if (it != tuples_.end() && it->second->seqno >= tuple.seqno) return false;
-  store(std::move(tuple));
+  if (it == tuples_.end()) {
+    if (keyProblem(tuple.key)) return false;  // a key already held was checked before
+    store(std::move(tuple));
+    return true;
+  }
+  if (it->second->seqno >= tuple.seqno) return false;
+  auto ptr = std::make_shared<const Tuple>(std::move(tuple));
+  it->second = ptr;  // one lookup: replaced in place
+  queueEvent(EventKind::Changed, ptr);
   return true;
 }
 

@@ -38,6 +38,43 @@ constexpr PeisId kSelf = 1;
 constexpr std::uint64_t kIncarnation = 100;
 constexpr auto kLease = 6000ms;
 
+// One message of the outbox, as the network will send it. The outbox keeps
+// runs of updates as encoded frames; flatten() decodes them (checking each
+// frame's envelope) so the tests see one message per update.
+struct Sent {
+  PeisId destination = 0;
+  TuplePtr update;
+  std::shared_ptr<wire::RoutedBody> body;
+};
+
+std::vector<Sent> flatten(std::vector<Replication::Outgoing>&& outbox) {
+  std::vector<Sent> sent;
+  for (auto& out : outbox) {
+    if (out.body) sent.push_back(Sent{out.destination, nullptr, std::move(out.body)});
+    if (out.update) sent.push_back(Sent{out.destination, out.update, nullptr});
+    std::string_view frames = out.frames;
+    std::uint32_t count = 0;
+    while (!frames.empty()) {
+      REQUIRE(frames.size() >= wire::kFrameHeaderBytes);
+      const auto length = wire::frameLength(frames);
+      REQUIRE(frames.size() >= wire::kFrameHeaderBytes + length);
+      auto decoded = wire::decode(frames.substr(wire::kFrameHeaderBytes, length), 1 << 20);
+      REQUIRE(decoded.message);
+      auto& routed = std::get<wire::RoutedMessage>(*decoded.message);
+      CHECK(routed.envelope.source == kSelf);
+      CHECK(routed.envelope.destination == out.destination);
+      auto& update = std::get<wire::TupleUpdate>(routed.body);
+      CHECK(update.ownerIncarnation == kIncarnation);
+      sent.push_back(
+          Sent{out.destination, std::make_shared<const Tuple>(std::move(update.tuple)), nullptr});
+      frames.remove_prefix(wire::kFrameHeaderBytes + length);
+      ++count;
+    }
+    CHECK(count == out.frameCount);
+  }
+  return sent;
+}
+
 // One PEIS's space and replication, wired as the Kernel wires them.
 struct Fixture {
   peis::test::ManualClock clock;
@@ -53,7 +90,7 @@ struct Fixture {
                const std::optional<TupleRef>& to) { replication.onRetarget(id, to); });
   }
 
-  std::vector<Replication::Outgoing> take() { return replication.takeOutbox(); }
+  std::vector<Sent> take() { return flatten(replication.takeOutbox()); }
 };
 
 wire::Subscribe subscribeMsg(std::uint64_t id, std::string pattern,
@@ -73,14 +110,13 @@ wire::Subscribe renewalMsg(std::uint64_t id, std::string pattern, std::uint32_t 
 }
 
 template <typename T>
-const T* bodyAs(const Replication::Outgoing& out) {
+const T* bodyAs(const Sent& out) {
   if (!out.body) return nullptr;
   return std::get_if<T>(&*out.body);
 }
 
 // The keys of the tuple updates in `outbox` for `destination`.
-std::multiset<std::string> updatedKeys(const std::vector<Replication::Outgoing>& outbox,
-                                       PeisId destination) {
+std::multiset<std::string> updatedKeys(const std::vector<Sent>& outbox, PeisId destination) {
   std::multiset<std::string> keys;
   for (const auto& out : outbox) {
     if (out.destination == destination && out.update) keys.insert(out.update->key);
@@ -104,7 +140,7 @@ wire::Write writeMsg(std::uint64_t request, wire::WriteOp op, std::string key, s
 }
 
 // The one WriteResult in `outbox`, checked to go to `destination`.
-wire::WriteResult onlyResult(const std::vector<Replication::Outgoing>& outbox, PeisId destination) {
+wire::WriteResult onlyResult(const std::vector<Sent>& outbox, PeisId destination) {
   std::vector<wire::WriteResult> results;
   for (const auto& out : outbox) {
     if (const auto* r = bodyAs<wire::WriteResult>(out)) {
@@ -180,24 +216,58 @@ TEST_CASE("replication owner side: subscriptions, full sync, updates, leases",
     CHECK(outbox.size() == 2);
   }
 
-  SECTION("takeOutbox takes the oldest messages first, at most as many as asked") {
+  SECTION("updates are encoded at once, a run per destination; takeOutbox takes entries in order") {
     f.replication.onSubscribe(9, subscribeMsg(1, "robot.*"), f.now);
-    f.space.set("robot.x", "later");
+    f.replication.onSubscribe(4, subscribeMsg(1, "robot.*"), f.now);
+    f.space.set("robot.x", "later");  // to 4 (extends its run), then to 9 (a new run)
     auto first = f.replication.takeOutbox(2);
     REQUIRE(first.size() == 2);
+    CHECK(first[0].destination == 9);
+    CHECK(first[0].frameCount == 2);
+    CHECK(first[1].destination == 4);
+    CHECK(first[1].frameCount == 3);
+    CHECK_FALSE(first[0].update);
     CHECK(f.replication.hasOutgoing());
     auto rest = f.take();
     REQUIRE(rest.size() == 1);
+    CHECK(rest[0].destination == 9);
     CHECK(rest[0].update->data == "later");
     CHECK_FALSE(f.replication.hasOutgoing());
+    CHECK(f.replication.outboxBytes() == 0);
+
+    // A byte budget stops taking early, but always takes one entry.
+    f.space.set("robot.x", "a");
+    f.space.set("robot.y", "b");
+    std::vector<Replication::Outgoing> some;
+    f.replication.takeOutbox(some, 10, 1);
+    CHECK(some.size() == 1);
+    CHECK(f.replication.hasOutgoing());
+  }
+
+  SECTION("a run of frames for one destination is cut at about 64 KiB") {
+    f.replication.onSubscribe(9, subscribeMsg(1, "robot.*"), f.now);
+    f.take();
+    const std::string data(1000, 'd');
+    for (int i = 0; i < 100; ++i) f.space.set("robot.x", data);
+    auto outbox = f.replication.takeOutbox();
+    REQUIRE(outbox.size() >= 2);
+    std::uint32_t frames = 0;
+    for (const auto& out : outbox) {
+      CHECK(out.frames.size() < Replication::kFramesPerEntryBytes + 2000);
+      frames += out.frameCount;
+    }
+    CHECK(frames == 100);
   }
 
   SECTION("an overfull outbox keeps only the newest waiting update per (destination, key)") {
     f.replication.onSubscribe(9, subscribeMsg(1, "**", std::nullopt), f.now);
     f.replication.onSubscribe(4, subscribeMsg(1, "fill.*"), f.now);
-    const auto fill = Replication::kCoalesceOutboxAbove;
-    // Three synced tuples, then two updates (to 9 and 4) per distinct key.
-    for (std::size_t i = 0; i < fill / 2; ++i) f.space.set("fill.k" + std::to_string(i), "x");
+    // Three synced tuples, then two updates (to 9 and 4) per distinct key,
+    // until more than the coalescing threshold waits.
+    const std::string big(32 * 1024, 'x');
+    for (int i = 0; f.replication.outboxBytes() < Replication::kCoalesceOutboxAbove; ++i) {
+      f.space.set("fill.k" + std::to_string(i), big);
+    }
     CHECK(f.replication.coalesced() == 0);
     f.space.set("robot.x", "v1");  // queued behind a full outbox: may be replaced
     f.space.set("robot.x", "v2");
@@ -216,6 +286,41 @@ TEST_CASE("replication owner side: subscriptions, full sync, updates, leases",
         toNine.push_back("deleted " + bodyAs<wire::TupleDeleted>(out)->key);
     }
     CHECK(toNine == std::vector<std::string>{"1", "v3", "deleted robot.y", "v4"});
+    CHECK(f.replication.outboxBytes() == 0);
+  }
+
+  SECTION("frames queued after a waiting update end coalescing into it") {
+    f.replication.onSubscribe(9, subscribeMsg(1, "**", std::nullopt), f.now);
+    const std::string big(32 * 1024, 'x');
+    for (int i = 0; f.replication.outboxBytes() < Replication::kCoalesceOutboxAbove; ++i) {
+      f.space.set("fill.k" + std::to_string(i), big);
+    }
+    f.space.set("robot.x", "waiting");
+    // The network drains part of the outbox: below the threshold again,
+    // updates are encoded at once, behind the one still waiting.
+    std::vector<Replication::Outgoing> drained;
+    f.replication.takeOutbox(drained, SIZE_MAX, Replication::kCoalesceOutboxAbove - 4096);
+    REQUIRE(f.replication.outboxBytes() < Replication::kTrackOutboxAbove);
+    f.space.set("robot.x", "encoded");
+    // Backed up again: the newest value may not replace "waiting", which
+    // would put it ahead of "encoded".
+    for (int i = 0; f.replication.outboxBytes() < Replication::kCoalesceOutboxAbove; ++i) {
+      f.space.set("more.k" + std::to_string(i), big);
+    }
+    f.space.set("robot.x", "newest");
+    std::vector<std::string> values;
+    for (const auto& out : f.take()) {
+      if (out.update && out.update->key == "robot.x") values.push_back(out.update->data);
+    }
+    CHECK(values == std::vector<std::string>{"waiting", "encoded", "newest"});
+  }
+
+  SECTION("frames encoded with an old id are dropped when the id changes") {
+    f.replication.onSubscribe(9, subscribeMsg(1, "robot.*"), f.now);
+    f.replication.onUnsubscribe(9, 7);  // unknown: no message
+    f.replication.onSelfChanged();
+    CHECK_FALSE(f.replication.hasOutgoing());
+    CHECK(f.replication.outboxBytes() == 0);
   }
 
   SECTION("a subscription for another owner is ignored") {

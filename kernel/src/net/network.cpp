@@ -36,6 +36,9 @@ constexpr int kMaxHops = 32;
 constexpr std::uint8_t kWithdrawn = 255;  // a route entry that is no longer valid
 constexpr std::size_t kReadChunk = 32 * 1024;
 constexpr std::size_t kWriteChunk = 256 * 1024;
+constexpr std::size_t kOwnChunkBytes = 4 * 1024;  // queued bytes moved in as a chunk of their own
+constexpr std::size_t kGatherChunks = 16;         // chunks per gathered write, at most
+constexpr std::size_t kGatherBytes = 1024 * 1024;
 constexpr std::chrono::milliseconds kAdvertDelay{100};
 constexpr std::chrono::milliseconds kRedialPeriod{1000};
 constexpr std::chrono::seconds kLinkGrace{2};  // a link's minimum life before pruning
@@ -116,6 +119,7 @@ class Network::Impl {
   void stop();
   bool send(wire::RoutedMessage message);
   bool sendUpdate(PeisId destination, std::uint64_t incarnation, const Tuple& tuple);
+  bool sendFrames(PeisId destination, std::string&& frames, std::uint32_t count);
   std::vector<PeerInfo> peers() const;
   std::vector<LinkInfo> links() const;
 
@@ -146,9 +150,12 @@ class Network::Impl {
   void dial(const std::string& host, std::uint16_t port, int explicitIndex);
   void addLink(tcp::socket socket, bool outbound, int explicitIndex, PeisId dialTarget = 0);
   void onHello(const std::shared_ptr<Link>& link, const wire::Hello& hello);
-  void onRouted(const std::shared_ptr<Link>& link, std::string_view frame,
-                wire::RoutedMessage&& message);
+  void onMalformed(const std::shared_ptr<Link>& link, const std::string& error);
+  void onRouted(const std::shared_ptr<Link>& link, std::string_view frame);
   void deliverOrForward(std::string_view frame, wire::RoutedMessage&& message);
+  void forwardFrame(std::string_view frame, const wire::Envelope& envelope);
+  std::string decodeError_;
+  std::uint64_t routesEpoch_ = 1;  // bumped whenever routes, links or adverts change
   void retryHeld();
   struct Held {
     std::string frame;
@@ -254,14 +261,33 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
       wire::encodeTupleUpdate(envelope, incarnation, tuple, chunks_.back());
       chunks_.emplace_back();
     } else {
-      if (chunks_.empty() || chunks_.back().size() >= kWriteChunk) chunks_.emplace_back();
+      // A stream of small frames fills a chunk without regrowing it (a full
+      // chunk, or one moved in by sendBytes, is never copied to grow).
+      if (chunks_.empty() || chunks_.back().size() >= kWriteChunk ||
+          (!chunks_.back().empty() && chunks_.back().capacity() < chunks_.back().size() + bytes)) {
+        chunks_.emplace_back();
+      }
       auto& chunk = chunks_.back();
-      // A stream of small frames fills the chunk without regrowing it.
       if (chunk.capacity() < chunk.size() + bytes) chunk.reserve(kWriteChunk + kWriteChunk / 8);
       wire::encodeTupleUpdate(envelope, incarnation, tuple, chunk);
     }
     queued_ += bytes;
     ++net_.counters_.framesOut;
+    write();
+  }
+
+  // Queues whole frames encoded elsewhere; a run of a few KiB or more
+  // becomes a chunk of its own (moved, not copied).
+  void sendBytes(std::string&& bytes, std::uint32_t frames) {
+    if (closed_ || bytes.empty()) return;
+    queued_ += bytes.size();
+    net_.counters_.framesOut += frames;
+    if (bytes.size() >= kOwnChunkBytes) {
+      chunks_.push_back(std::move(bytes));
+    } else {
+      if (chunks_.empty() || chunks_.back().size() >= kWriteChunk) chunks_.emplace_back();
+      chunks_.back().append(bytes);
+    }
     write();
   }
 
@@ -280,7 +306,7 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
     if (!writing_) close(reason);
   }
 
-  std::size_t backlog() const { return out_.size() + queued_; }
+  std::size_t backlog() const { return inFlight_ + queued_; }
   bool bytesWaiting() {
     boost::system::error_code ec;
     return socket_.available(ec) > 0 && !ec;
@@ -299,6 +325,10 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   std::map<PeisId, wire::RouteEntry> told_;  // the routes this peer last heard from us
   int malformed_ = 0;
   bool closed_ = false;
+  // The last source whose frames passed onRouted's checks on this link, and
+  // the routes epoch they were checked in.
+  PeisId checkedSource_ = 0;
+  std::uint64_t checkedEpoch_ = 0;
   PeisId dialTarget_ = 0;  // the beacon peer this link was dialled for
 
  private:
@@ -311,20 +341,30 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
     ++net_.counters_.framesOut;
   }
 
+  // Writes the queued chunks, several in one gathered write.
   void write() {
     if (writing_ || closed_) return;
-    while (!chunks_.empty() && chunks_.front().empty()) chunks_.pop_front();
-    if (chunks_.empty()) return;
-    out_ = std::move(chunks_.front());
-    chunks_.pop_front();
-    queued_ -= out_.size();
+    std::size_t bytes = 0;
+    while (!chunks_.empty() && outChunks_.size() < kGatherChunks && bytes < kGatherBytes) {
+      if (!chunks_.front().empty()) {
+        bytes += chunks_.front().size();
+        outChunks_.push_back(std::move(chunks_.front()));
+      }
+      chunks_.pop_front();
+    }
+    if (outChunks_.empty()) return;
+    queued_ -= bytes;
+    inFlight_ = bytes;
+    outBuffers_.clear();
+    for (const auto& chunk : outChunks_) outBuffers_.emplace_back(asio::buffer(chunk));
     writing_ = true;
     lastSent_ = SteadyClock::now();  // what is queued goes out now
     asio::async_write(
-        socket_, asio::buffer(out_),
+        socket_, outBuffers_,
         [self = shared_from_this()](const boost::system::error_code& ec, std::size_t) {
           self->writing_ = false;
-          self->out_.clear();
+          self->outChunks_.clear();
+          self->inFlight_ = 0;
           if (ec) return self->close("write failed: " + ec.message());
           if (!self->closeReason_.empty() && self->chunks_.empty()) {
             return self->close(self->closeReason_);
@@ -382,7 +422,9 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   std::unique_ptr<char[]> readBuffer_;
   std::string in_;
   std::size_t inPos_ = 0;
-  std::string out_;
+  std::vector<std::string> outChunks_;  // being written
+  std::vector<asio::const_buffer> outBuffers_;
+  std::size_t inFlight_ = 0;
   std::deque<std::string> chunks_;
   std::size_t queued_ = 0;
   bool writing_ = false;
@@ -529,25 +571,34 @@ void Network::Impl::onClosed(const std::shared_ptr<Link>& link, const std::strin
   }
 }
 
+void Network::Impl::onMalformed(const std::shared_ptr<Link>& link, const std::string& error) {
+  ++counters_.malformedFrames;
+  log::warn(self_, "dropped a malformed frame from " + link->remote_ + ": " + error);
+  if (++link->malformed_ >= config_.maxMalformedFrames || !link->established_) {
+    ++counters_.garbagePeersDisconnected;
+    link->close("sent garbage");
+  }
+}
+
 void Network::Impl::onFrame(const std::shared_ptr<Link>& link, std::string_view frame) {
   ++counters_.framesIn;
-  auto result = wire::decode(frame, config_.maxDataBytes);
-  if (!result.message) {
-    ++counters_.malformedFrames;
-    log::warn(self_, "dropped a malformed frame from " + link->remote_ + ": " + result.error);
-    if (++link->malformed_ >= config_.maxMalformedFrames || !link->established_) {
-      ++counters_.garbagePeersDisconnected;
-      link->close("sent garbage");
+  if (wire::isRoutedFrame(frame)) {
+    // Decoded straight into the inbox; onRouted takes it out again unless
+    // it is for this PEIS.
+    auto& message = inbox_.emplace_back();
+    if (!wire::decodeRouted(frame, config_.maxDataBytes, message, decodeError_)) {
+      inbox_.pop_back();
+      return onMalformed(link, decodeError_);
     }
-    return;
-  }
-  if (auto* routed = std::get_if<wire::RoutedMessage>(&*result.message)) {
     if (!link->established_) {
+      inbox_.pop_back();
       ++counters_.garbagePeersDisconnected;
       return link->close("routed message before the handshake");
     }
-    return onRouted(link, frame, std::move(*routed));
+    return onRouted(link, frame);
   }
+  auto result = wire::decode(frame, config_.maxDataBytes);
+  if (!result.message) return onMalformed(link, result.error);
   auto& message = std::get<wire::LinkMessage>(*result.message);
   if (auto* hello = std::get_if<wire::Hello>(&message)) return onHello(link, *hello);
   if (!link->established_) {
@@ -559,6 +610,7 @@ void Network::Impl::onFrame(const std::shared_ptr<Link>& link, std::string_view 
     wire::encode(wire::LinkMessage{wire::Pong{ping->nonce}}, out);
     link->sendFrame(out);
   } else if (auto* routes = std::get_if<wire::Routes>(&message)) {
+    ++routesEpoch_;
     auto& known = adverts_[link->peer_.id];
     for (auto& entry : routes->entries) {
       if (entry.hops == kWithdrawn) {
@@ -630,6 +682,7 @@ void Network::Impl::collision(std::uint64_t otherIncarnation) {
                      std::to_string(self_));
   routes_.clear();
   adverts_.clear();
+  ++routesEpoch_;
   auto links = links_;
   for (auto& l : links) l->close("re-picked my id");
   routes_[self_] = Route{0, self_, incarnation_, config_.name};
@@ -638,51 +691,65 @@ void Network::Impl::collision(std::uint64_t otherIncarnation) {
                true);
 }
 
-void Network::Impl::onRouted(const std::shared_ptr<Link>& link, std::string_view frame,
-                             wire::RoutedMessage&& message) {
-  const auto& envelope = message.envelope;
+// The message is inbox_.back(): it stays there only when it is for this PEIS.
+void Network::Impl::onRouted(const std::shared_ptr<Link>& link, std::string_view frame) {
+  const auto envelope = inbox_.back().envelope;
+  auto drop = [this] { inbox_.pop_back(); };
   if (envelope.source == self_) {  // our own frame came back: a transient loop
     ++counters_.unroutable;
-    return;
+    return drop();
   }
-  // Its route may sit in an advert whose recompute is still pending.
-  if (!routes_.count(envelope.source) && recomputeScheduled_) recompute();
-  // A linked PEIS sends its own frames over its own link, so a frame claiming
-  // its id from another link is spoofed, unless that link's PEIS advertised
-  // a route to it: then it relays frames sent while routes were changing
-  // (e.g. the full sync of a subscription made before the direct link was up).
-  const auto direct = linkTo(envelope.source);
-  const auto relay = adverts_.find(link->peer_.id);
-  const bool relayed = relay != adverts_.end() && relay->second.count(envelope.source) != 0;
-  if (direct && direct != link && !relayed) {
-    ++counters_.malformedFrames;
-    log::warn(self_, "dropped a frame from " + link->remote_ + " with spoofed source " +
-                         std::to_string(envelope.source));
-    if (++link->malformed_ >= config_.maxMalformedFrames) {
-      ++counters_.garbagePeersDisconnected;
-      link->close("sent garbage");
-    }
-    return;
-  }
-  if (!routes_.count(envelope.source)) {
-    // A PEIS we have no route to yet: the adverts naming it travel one hop
-    // per advert delay, its first messages can be faster. Hold them briefly.
-    if (held_.size() >= kMaxHeldFrames) {
-      ++counters_.unroutable;
+  // The checks below depend only on the source, the link and the routes: a
+  // stream of frames from one source skips them while nothing changed.
+  if (link->checkedSource_ != envelope.source || link->checkedEpoch_ != routesEpoch_) {
+    // Its route may sit in an advert whose recompute is still pending.
+    if (!routes_.count(envelope.source) && recomputeScheduled_) recompute();
+    // A linked PEIS sends its own frames over its own link, so a frame
+    // claiming its id from another link is spoofed, unless that link's PEIS
+    // advertised a route to it: then it relays frames sent while routes were
+    // changing (e.g. the full sync of a subscription made before the direct
+    // link was up).
+    const auto direct = linkTo(envelope.source);
+    const auto relay = adverts_.find(link->peer_.id);
+    const bool relayed = relay != adverts_.end() && relay->second.count(envelope.source) != 0;
+    if (direct && direct != link && !relayed) {
+      ++counters_.malformedFrames;
+      log::warn(self_, "dropped a frame from " + link->remote_ + " with spoofed source " +
+                           std::to_string(envelope.source));
+      drop();
+      if (++link->malformed_ >= config_.maxMalformedFrames) {
+        ++counters_.garbagePeersDisconnected;
+        link->close("sent garbage");
+      }
       return;
     }
-    held_.push_back(Held{std::string(frame), std::move(message), SteadyClock::now()});
-    return;
+    if (!routes_.count(envelope.source)) {
+      // A PEIS we have no route to yet: the adverts naming it travel one hop
+      // per advert delay, its first messages can be faster. Hold them briefly.
+      if (held_.size() >= kMaxHeldFrames) {
+        ++counters_.unroutable;
+        return drop();
+      }
+      held_.push_back(Held{std::string(frame), std::move(inbox_.back()), SteadyClock::now()});
+      return drop();
+    }
+    link->checkedSource_ = envelope.source;
+    link->checkedEpoch_ = routesEpoch_;
   }
-  deliverOrForward(frame, std::move(message));
+  if (envelope.destination == self_) return;  // stays in the inbox
+  forwardFrame(frame, envelope);
+  drop();
 }
 
 void Network::Impl::deliverOrForward(std::string_view frame, wire::RoutedMessage&& message) {
-  const auto& envelope = message.envelope;
-  if (envelope.destination == self_) {
+  if (message.envelope.destination == self_) {
     inbox_.push_back(std::move(message));
     return;
   }
+  forwardFrame(frame, message.envelope);
+}
+
+void Network::Impl::forwardFrame(std::string_view frame, const wire::Envelope& envelope) {
   if (envelope.ttl <= 1) {
     ++counters_.unroutable;
     return;
@@ -769,7 +836,20 @@ bool Network::Impl::sendUpdate(PeisId destination, std::uint64_t incarnation, co
   return true;
 }
 
+bool Network::Impl::sendFrames(PeisId destination, std::string&& frames, std::uint32_t count) {
+  auto route = routes_.find(destination);
+  Link* link =
+      route == routes_.end() || route->second.hops == 0 ? nullptr : findLink(route->second.nextHop);
+  if (!link) {
+    counters_.unroutable += count;
+    return false;
+  }
+  link->sendBytes(std::move(frames), count);
+  return true;
+}
+
 void Network::Impl::recompute() {
+  ++routesEpoch_;  // links or adverts changed (or may have): re-check sources
   std::map<PeisId, Route> next;
   next[self_] = Route{0, self_, incarnation_, config_.name};
   // Builds a Route (and copies its name) only when it wins.
@@ -1123,6 +1203,9 @@ void Network::stop() { impl_->stop(); }
 bool Network::send(wire::RoutedMessage message) { return impl_->send(std::move(message)); }
 bool Network::sendUpdate(PeisId destination, std::uint64_t incarnation, const Tuple& tuple) {
   return impl_->sendUpdate(destination, incarnation, tuple);
+}
+bool Network::sendFrames(PeisId destination, std::string&& frames, std::uint32_t count) {
+  return impl_->sendFrames(destination, std::move(frames), count);
 }
 bool Network::congested() { return impl_->congested(); }
 bool Network::reachable(PeisId id) const {

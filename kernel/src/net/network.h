@@ -102,6 +102,9 @@ class Network {
   bool congested();
   // Sends a tuple update encoded straight from the stored tuple.
   bool sendUpdate(PeisId destination, std::uint64_t ownerIncarnation, const Tuple& tuple);
+  // Sends `count` whole routed frames for `destination`, already encoded
+  // with this PEIS as their source.
+  bool sendFrames(PeisId destination, std::string&& frames, std::uint32_t count);
 
   bool reachable(PeisId id) const;
   std::vector<PeerInfo> peers() const;

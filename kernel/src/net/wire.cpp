@@ -115,6 +115,12 @@ class Reader {
   }
   std::string str8(const char* what) { return bytes(u8(what), what); }
   std::string str16(const char* what) { return bytes(u16(what), what); }
+  // Into an existing string (its memory is reused).
+  void bytesInto(std::string& s, std::size_t n, const char* what) {
+    if (!need(n, what)) return s.clear();
+    s.assign(in_.data() + pos_, n);
+    pos_ += n;
+  }
   PeisId id(const char* what) {
     const auto v = i32(what);
     if (ok_ && !isValidPeisId(v)) [[unlikely]]
@@ -170,13 +176,12 @@ void checkKey(Reader& r, const std::string& key, const char* what) {
   if (auto problem = keyProblem(key)) r.fail(std::string("bad ") + what + ": " + *problem);
 }
 
-Tuple readTuple(Reader& r, std::size_t maxDataBytes) {
-  Tuple t;
+void readTupleInto(Reader& r, std::size_t maxDataBytes, Tuple& t) {
   t.owner = r.id("tuple owner");
   t.creator = r.id("tuple creator");
-  t.key = r.str16("tuple key");
+  r.bytesInto(t.key, r.u16("tuple key"), "tuple key");
   checkKey(r, t.key, "tuple key");
-  t.mimetype = r.str8("mimetype");
+  r.bytesInto(t.mimetype, r.u8("mimetype"), "mimetype");
   const auto encoding = r.u8("encoding");
   if (r.ok() && encoding > 1) r.fail("unknown encoding " + std::to_string(encoding));
   t.encoding = static_cast<Encoding>(encoding);
@@ -189,7 +194,12 @@ Tuple readTuple(Reader& r, std::size_t maxDataBytes) {
     r.fail("data of " + std::to_string(size) + " bytes exceeds the limit of " +
            std::to_string(maxDataBytes));
   }
-  t.data = r.bytes(size, "data");
+  r.bytesInto(t.data, size, "data");
+}
+
+Tuple readTuple(Reader& r, std::size_t maxDataBytes) {
+  Tuple t;
+  readTupleInto(r, maxDataBytes, t);
   return t;
 }
 
@@ -474,6 +484,47 @@ std::uint32_t frameLength(std::string_view bytes) {
   return v;
 }
 
+namespace {
+// The envelope and body of a routed frame into `out`; a TupleUpdate (the
+// hot path) is read straight into the message's tuple.
+void readRouted(MessageType type, Reader& r, std::size_t maxDataBytes, RoutedMessage& out) {
+  out.envelope.source = r.id("source");
+  out.envelope.destination = r.id("destination");
+  out.envelope.ttl = r.u8("ttl");
+  if (type != MessageType::TupleUpdate) {
+    out.body = decodeBody(type, r, maxDataBytes);
+    return;
+  }
+  auto* update = std::get_if<TupleUpdate>(&out.body);
+  if (!update) update = &out.body.emplace<TupleUpdate>();
+  update->ownerIncarnation = r.u64("incarnation");
+  readTupleInto(r, maxDataBytes, update->tuple);
+}
+}  // namespace
+
+bool decodeRouted(std::string_view frame, std::size_t maxDataBytes, RoutedMessage& out,
+                  std::string& error) {
+  if (frame.empty()) {
+    error = "empty frame";
+    return false;
+  }
+  const auto rawType = static_cast<std::uint8_t>(frame[0]);
+  if (!knownType(rawType) || !isRouted(static_cast<MessageType>(rawType))) {
+    error = "unknown routed message type " + std::to_string(rawType);
+    return false;
+  }
+  Reader r(frame.substr(1));
+  readRouted(static_cast<MessageType>(rawType), r, maxDataBytes, out);
+  r.end();
+  if (!r.ok()) error = r.error();
+  return r.ok();
+}
+
+bool isRoutedFrame(std::string_view frame) {
+  return !frame.empty() && knownType(static_cast<std::uint8_t>(frame[0])) &&
+         isRouted(static_cast<MessageType>(frame[0]));
+}
+
 DecodeResult decode(std::string_view frame, std::size_t maxDataBytes) {
   if (frame.empty()) return {std::nullopt, "empty frame"};
   const auto rawType = static_cast<std::uint8_t>(frame[0]);
@@ -483,10 +534,7 @@ DecodeResult decode(std::string_view frame, std::size_t maxDataBytes) {
   Message message;
   if (isRouted(type)) {
     RoutedMessage routed;
-    routed.envelope.source = r.id("source");
-    routed.envelope.destination = r.id("destination");
-    routed.envelope.ttl = r.u8("ttl");
-    routed.body = decodeBody(type, r, maxDataBytes);
+    readRouted(type, r, maxDataBytes, routed);
     message = std::move(routed);
   } else {
     message = decodeLink(type, r);

@@ -135,6 +135,13 @@ struct DecodeResult {
 // `maxDataBytes` bounds tuple data.
 DecodeResult decode(std::string_view frame, std::size_t maxDataBytes);
 
+// Decodes a routed frame into `out`, reusing its memory (the receive hot
+// path); false with the reason in `error` for anything decode() rejects.
+bool decodeRouted(std::string_view frame, std::size_t maxDataBytes, RoutedMessage& out,
+                  std::string& error);
+// Whether the frame's type byte names a routed message.
+bool isRoutedFrame(std::string_view frame);
+
 // Reads the u32 length prefix at the start of `bytes` (needs 4 bytes).
 std::uint32_t frameLength(std::string_view bytes);
 
