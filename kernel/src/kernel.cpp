@@ -24,6 +24,7 @@
 #include <random>
 #include <thread>
 
+#include "adaptive_mutex.h"
 #include "log.h"
 #include "net/network.h"
 #include "peis/error.h"
@@ -39,6 +40,10 @@ constexpr std::size_t kDeliveriesPerTurn = 256;  // then let timers and posts ru
 constexpr std::size_t kDeliveriesPerLock = 32;   // taken from the queue per lock
 constexpr std::size_t kMessagesPerTurn = 1024;   // network sends per turn, likewise
 constexpr std::size_t kBytesPerTurn = 1u << 20;  // of tuple updates per turn, likewise
+// A flush that carried this many messages is part of a stream: the next one
+// waits kStreamFlushDelay to collect more (docs/architecture.md, "Flush").
+constexpr std::size_t kStreamMessages = 16;
+constexpr std::chrono::microseconds kStreamFlushDelay{50};
 
 PeisId pickId(const Options& options) {
   if (options.id) return *options.id;
@@ -101,8 +106,8 @@ struct Kernel::Impl {
 
   std::uint64_t incarnation = static_cast<std::uint64_t>(systemNow().time_since_epoch().count());
 
-  mutable std::mutex mu;  // guards everything below down to `peerSnapshot`
-  mutable std::condition_variable changed;
+  mutable AdaptiveMutex mu;  // guards everything below down to `peerSnapshot`
+  mutable std::condition_variable_any changed;
   TupleSpace space;
   Replication replication;
   bool drainScheduled = false;
@@ -296,6 +301,7 @@ struct Kernel::Impl {
 
   // --- network glue (kernel thread) -------------------------------------------
   std::vector<Replication::Outgoing> outgoing;  // kernel thread: flush's, reused
+  asio::steady_timer flushTimer{io};
 
   void flush() {
     if (network && network->congested()) return;  // onWritable posts flush again
@@ -303,8 +309,18 @@ struct Kernel::Impl {
     {
       std::lock_guard lock(mu);
       replication.takeOutbox(outgoing, kMessagesPerTurn, kBytesPerTurn);
+      std::size_t messages = 0;
+      for (const auto& out : outgoing) messages += out.frameCount > 0 ? out.frameCount : 1;
       if (replication.hasOutgoing()) {
         asio::post(io, [this] { flush(); });  // more: let the sockets drain first
+      } else if (messages >= kStreamMessages) {
+        // A writer is streaming: collect its next updates for a moment
+        // rather than have every few of them wake this thread (which costs
+        // the writer a system call each time). flushScheduled stays set.
+        flushTimer.expires_after(kStreamFlushDelay);
+        flushTimer.async_wait([this](const boost::system::error_code& ec) {
+          if (!ec) flush();
+        });
       } else {
         flushScheduled = false;
       }
