@@ -2,10 +2,13 @@
 // PTHREAD_MUTEX_ADAPTIVE_NP). The kernel's lock is held for well under a
 // microsecond at a time, by an application thread and the kernel thread on
 // different cores; spinning then costs less than the futex sleep and wake
-// (two system calls and a context switch) a plain std::mutex pays.
+// (two system calls and a context switch) a plain std::mutex pays. On a
+// single CPU (e.g. under `taskset -c 0`) the holder cannot run while another
+// thread spins, so there it is a plain mutex.
 #pragma once
 
 #include <pthread.h>
+#include <sched.h>
 
 namespace peis {
 
@@ -14,7 +17,8 @@ class AdaptiveMutex {
   AdaptiveMutex() {
     pthread_mutexattr_t attributes;
     pthread_mutexattr_init(&attributes);
-    pthread_mutexattr_settype(&attributes, PTHREAD_MUTEX_ADAPTIVE_NP);
+    pthread_mutexattr_settype(&attributes,
+                              usableCpus() > 1 ? PTHREAD_MUTEX_ADAPTIVE_NP : PTHREAD_MUTEX_NORMAL);
     pthread_mutex_init(&mutex_, &attributes);
     pthread_mutexattr_destroy(&attributes);
   }
@@ -27,6 +31,11 @@ class AdaptiveMutex {
   void unlock() { pthread_mutex_unlock(&mutex_); }
 
  private:
+  static int usableCpus() {
+    cpu_set_t cpus;
+    if (sched_getaffinity(0, sizeof cpus, &cpus) != 0) return 1;
+    return CPU_COUNT(&cpus);
+  }
   pthread_mutex_t mutex_;
 };
 

@@ -13,6 +13,7 @@
 #include <boost/asio/ip/udp.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <boost/asio/write.hpp>
+#include <cstring>
 #include <deque>
 #include <map>
 #include <set>
@@ -374,32 +375,50 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
         });
   }
 
+  // The socket reads straight into in_ (no intermediate buffer): the bytes
+  // [inPos_, inEnd_) are received and not parsed yet.
   void read() {
     if (closed_) return;
-    // Not value-initialised: only the bytes the socket writes get touched.
-    if (!readBuffer_) readBuffer_.reset(new char[kReadChunk]);
+    makeReadRoom();
     socket_.async_read_some(
-        asio::buffer(readBuffer_.get(), kReadChunk),
+        asio::buffer(in_.data() + inEnd_, in_.size() - inEnd_),
         [self = shared_from_this()](const boost::system::error_code& ec, std::size_t n) {
           if (ec) {
             return self->close(ec == asio::error::eof ? "closed by peer" : ec.message());
           }
           self->lastHeard_ = SteadyClock::now();
-          auto& in = self->in_;
-          if (self->inPos_ > 0 && self->inPos_ * 2 > in.size()) {
-            in.erase(0, self->inPos_);
-            self->inPos_ = 0;
-          }
-          in.append(self->readBuffer_.get(), n);
+          self->inEnd_ += n;
           self->parse();
           self->net_.flushInbox();
           self->read();
         });
   }
 
+  // Room after inEnd_ for kReadChunk bytes, or for the rest of a frame whose
+  // length is known to be bigger, so a big frame arrives in place.
+  void makeReadRoom() {
+    const std::size_t pending = inEnd_ - inPos_;
+    std::size_t want = kReadChunk;
+    if (pending >= wire::kFrameHeaderBytes) {
+      const auto frame =
+          wire::kFrameHeaderBytes + wire::frameLength(std::string_view(in_).substr(inPos_));
+      // (parse() has closed the link on an impossible length already)
+      if (frame > pending && frame <= net_.maxFrameBytes() + wire::kFrameHeaderBytes) {
+        want = std::max(want, frame - pending);
+      }
+    }
+    if (in_.size() - inEnd_ >= want) return;
+    if (inPos_ > 0) {  // move the partial frame to the front
+      std::memmove(in_.data(), in_.data() + inPos_, pending);
+      inPos_ = 0;
+      inEnd_ = pending;
+    }
+    if (in_.size() - inEnd_ < want) in_.resize(inEnd_ + want);
+  }
+
   void parse() {
     while (!closed_) {
-      const std::size_t available = in_.size() - inPos_;
+      const std::size_t available = inEnd_ - inPos_;
       if (available < wire::kFrameHeaderBytes) break;
       const auto length = wire::frameLength(std::string_view(in_).substr(inPos_));
       if (length == 0 || length > net_.maxFrameBytes()) {
@@ -412,16 +431,17 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
       inPos_ += wire::kFrameHeaderBytes + length;
       net_.onFrame(shared_from_this(), frame);
     }
-    if (inPos_ == in_.size()) {
-      in_.clear();
-      inPos_ = 0;
-      if (in_.capacity() > (1u << 20)) in_.shrink_to_fit();  // after a huge frame
+    if (inPos_ == inEnd_) {
+      inPos_ = inEnd_ = 0;
+      if (in_.size() > (1u << 20)) {  // after a huge frame
+        in_.clear();
+        in_.shrink_to_fit();
+      }
     }
   }
 
-  std::unique_ptr<char[]> readBuffer_;
   std::string in_;
-  std::size_t inPos_ = 0;
+  std::size_t inPos_ = 0, inEnd_ = 0;
   std::vector<std::string> outChunks_;  // being written
   std::vector<asio::const_buffer> outBuffers_;
   std::size_t inFlight_ = 0;
