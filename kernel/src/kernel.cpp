@@ -17,6 +17,7 @@
 #include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
+#include <deque>
 #include <future>
 #include <iostream>
 #include <map>
@@ -37,7 +38,6 @@ namespace asio = boost::asio;
 namespace {
 
 constexpr std::size_t kDeliveriesPerTurn = 256;  // then let timers and posts run
-constexpr std::size_t kDeliveriesPerLock = 32;   // taken from the queue per lock
 constexpr std::size_t kMessagesPerTurn = 1024;   // network sends per turn, likewise
 constexpr std::size_t kBytesPerTurn = 1u << 20;  // of tuple updates per turn, likewise
 // A flush that carried this many messages is part of a stream: the next one
@@ -191,41 +191,41 @@ struct Kernel::Impl {
     if (waiters > 0) changed.notify_all();
   }
 
-  std::vector<TupleSpace::Delivery> batch;  // kernel thread: drain's, reused
+  // Kernel thread: deliveries taken from the space, run in turns.
+  std::deque<TupleSpace::Delivery> batch;
 
   void drain() {
-    for (std::size_t turn = 0; turn < kDeliveriesPerTurn; turn += kDeliveriesPerLock) {
-      batch.clear();
-      {
-        std::lock_guard lock(mu);
-        space.takeDeliveries(batch, kDeliveriesPerLock);
-        if (batch.empty()) {
-          if (space.allKeysDirty()) {
-            space.flushAllKeys();
-            if (waiters > 0) changed.notify_all();
-            continue;
-          }
-          drainScheduled = false;
+    if (batch.empty()) {
+      std::lock_guard lock(mu);
+      space.takeAllDeliveries(batch);  // a swap: one lock for all queued
+      if (batch.empty()) {
+        if (space.allKeysDirty()) {
+          space.flushAllKeys();
+          if (waiters > 0) changed.notify_all();
+          asio::post(io, [this] { drain(); });
           return;
         }
-      }
-      for (const auto& delivery : batch) {
-        // Each throwing callback is counted; the others for the event still run.
-        delivery.run([&](std::exception_ptr error) {
-          ++callbackErrors;
-          const auto what = delivery.tuple() ? delivery.tuple()->fullName() : std::string("?");
-          try {
-            std::rethrow_exception(error);
-          } catch (const std::exception& e) {
-            log::error(id, "a callback for " + what + " threw: " + e.what());
-          } catch (...) {
-            log::error(id, "a callback for " + what + " threw");
-          }
-        });
+        drainScheduled = false;
+        return;
       }
     }
-    batch.clear();
-    asio::post(io, [this] { drain(); });  // more to do: yield to timers first
+    for (std::size_t n = 0; n < kDeliveriesPerTurn && !batch.empty(); ++n) {
+      const auto& delivery = batch.front();
+      // Each throwing callback is counted; the others for the event still run.
+      delivery.run([&](std::exception_ptr error) {
+        ++callbackErrors;
+        const auto what = delivery.tuple() ? delivery.tuple()->fullName() : std::string("?");
+        try {
+          std::rethrow_exception(error);
+        } catch (const std::exception& e) {
+          log::error(id, "a callback for " + what + " threw: " + e.what());
+        } catch (...) {
+          log::error(id, "a callback for " + what + " threw");
+        }
+      });
+      batch.pop_front();
+    }
+    asio::post(io, [this] { drain(); });  // more, or a last look: yield to timers first
   }
 
   void noteExpiry(const Tuple& tuple) {

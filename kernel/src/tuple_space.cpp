@@ -104,6 +104,7 @@ void TupleSpace::changeSelf(PeisId newId) {
   if (!isValidPeisId(newId)) {
     throw Error(ErrorCode::InvalidArgument, "invalid PEIS id " + std::to_string(newId));
   }
+  hasLastAccepted_ = false;
   std::vector<Tuple> own;
   for (auto it = tuples_.lower_bound(TupleRef{self_, ""});
        it != tuples_.end() && it->first.owner == self_;) {
@@ -231,6 +232,7 @@ bool TupleSpace::erase(std::string_view key) {
 }
 
 void TupleSpace::remove(std::map<TupleRef, TuplePtr>::iterator it, std::uint64_t seqno) {
+  hasLastAccepted_ = false;
   Tuple last = *it->second;
   last.seqno = seqno;
   if (last.owner == self_) {
@@ -244,12 +246,16 @@ void TupleSpace::remove(std::map<TupleRef, TuplePtr>::iterator it, std::uint64_t
 bool TupleSpace::accept(Tuple&& tuple) {
   if (tuple.owner == self_ || !isValidPeisId(tuple.owner)) return false;
   checkData(tuple.data.size());
-  auto it = tuples_.find(refOf(tuple));
+  const bool same = hasLastAccepted_ && lastAccepted_->first.owner == tuple.owner &&
+                    lastAccepted_->first.key == tuple.key;
+  auto it = same ? lastAccepted_ : tuples_.find(refOf(tuple));
   if (it == tuples_.end()) {
     if (keyProblem(tuple.key)) return false;  // a key already held was checked before
     store(std::move(tuple));
     return true;
   }
+  lastAccepted_ = it;
+  hasLastAccepted_ = true;
   if (it->second->seqno >= tuple.seqno) return false;
   auto ptr = std::make_shared<const Tuple>(std::move(tuple));
   it->second = ptr;  // one lookup: replaced in place
@@ -510,6 +516,15 @@ std::size_t TupleSpace::takeDeliveries(std::vector<Delivery>& out, std::size_t m
     queue_.pop_front();
   }
   return count;
+}
+
+void TupleSpace::takeAllDeliveries(std::deque<Delivery>& out) {
+  if (out.empty()) {
+    out.swap(queue_);
+    return;
+  }
+  for (auto& delivery : queue_) out.push_back(std::move(delivery));
+  queue_.clear();
 }
 
 std::size_t TupleSpace::dispatch() {

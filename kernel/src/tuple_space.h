@@ -170,6 +170,8 @@ class TupleSpace {
   std::optional<Delivery> nextDelivery();
   // Moves up to `most` queued deliveries, oldest first, to the end of `out`.
   std::size_t takeDeliveries(std::vector<Delivery>& out, std::size_t most);
+  // Moves every queued delivery to `out` (empty: a swap, nothing is copied).
+  void takeAllDeliveries(std::deque<Delivery>& out);
   bool hasPendingDeliveries() const { return !queue_.empty(); }
   // Runs queued deliveries until none is left; a nested call returns 0.
   std::size_t dispatch();
@@ -192,6 +194,10 @@ class TupleSpace {
   Clock clock_;
   SpaceLimits limits_;
   std::map<TupleRef, TuplePtr> tuples_;
+  // The entry accept() found last (a stream updates one key over and over);
+  // forgotten whenever an entry is erased.
+  std::map<TupleRef, TuplePtr>::iterator lastAccepted_;
+  bool hasLastAccepted_ = false;
   // Last seqno ever used per own key, so a re-created key keeps increasing.
   std::map<std::string, std::uint64_t, std::less<>> ownSeqnos_;
   std::map<CallbackId, std::shared_ptr<Entry>> callbacks_;

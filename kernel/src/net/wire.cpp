@@ -1,12 +1,65 @@
 // Wire frame encoder and checked decoder; layout in wire_format.h.
 #include "net/wire.h"
 
+#include <bit>
 #include <cstring>
 
 #include "peis/key.h"
 
 namespace peis::wire {
 namespace {
+
+// Big-endian integers of n = 1, 2, 4 or 8 bytes (n is a constant where
+// these are inlined, so each becomes one load or store and a byte swap).
+inline std::uint64_t readBigEndian(const char* p, int n) {
+  std::uint64_t v = 0;
+  if constexpr (std::endian::native == std::endian::little) {
+    switch (n) {
+      case 8:
+        std::memcpy(&v, p, 8);
+        return __builtin_bswap64(v);
+      case 4: {
+        std::uint32_t x;
+        std::memcpy(&x, p, 4);
+        return __builtin_bswap32(x);
+      }
+      case 2: {
+        std::uint16_t x;
+        std::memcpy(&x, p, 2);
+        return __builtin_bswap16(x);
+      }
+      default:
+        break;
+    }
+  }
+  for (int i = 0; i < n; ++i) v = (v << 8) | static_cast<std::uint8_t>(p[i]);
+  return v;
+}
+
+inline void writeBigEndian(char* p, std::uint64_t v, int n) {
+  if constexpr (std::endian::native == std::endian::little) {
+    switch (n) {
+      case 8: {
+        const auto x = __builtin_bswap64(v);
+        std::memcpy(p, &x, 8);
+        return;
+      }
+      case 4: {
+        const auto x = __builtin_bswap32(static_cast<std::uint32_t>(v));
+        std::memcpy(p, &x, 4);
+        return;
+      }
+      case 2: {
+        const auto x = __builtin_bswap16(static_cast<std::uint16_t>(v));
+        std::memcpy(p, &x, 2);
+        return;
+      }
+      default:
+        break;
+    }
+  }
+  for (int i = 0; i < n; ++i) p[i] = static_cast<char>(v >> (8 * (n - 1 - i)));
+}
 
 class Writer {
  public:
@@ -68,7 +121,7 @@ class RawWriter {
 
  private:
   void put(std::uint64_t v, int n) {
-    for (int i = 0; i < n; ++i) p_[i] = static_cast<char>(v >> (8 * (n - 1 - i)));
+    writeBigEndian(p_, v, n);
     p_ += n;
   }
   void raw(std::string_view s) {
@@ -136,8 +189,7 @@ class Reader {
  private:
   std::uint64_t get(int n, const char* what) {
     if (!need(static_cast<std::size_t>(n), what)) return 0;
-    std::uint64_t v = 0;
-    for (int i = 0; i < n; ++i) v = (v << 8) | static_cast<std::uint8_t>(in_[pos_ + i]);
+    const auto v = readBigEndian(in_.data() + pos_, n);
     pos_ += static_cast<std::size_t>(n);
     return v;
   }
@@ -180,7 +232,12 @@ void readTupleInto(Reader& r, std::size_t maxDataBytes, Tuple& t) {
   t.owner = r.id("tuple owner");
   t.creator = r.id("tuple creator");
   r.bytesInto(t.key, r.u16("tuple key"), "tuple key");
-  checkKey(r, t.key, "tuple key");
+  // A stream repeats one key: the last key that passed is not checked again.
+  thread_local std::string lastGoodKey;
+  if (r.ok() && t.key != lastGoodKey) {
+    checkKey(r, t.key, "tuple key");
+    if (r.ok()) lastGoodKey = t.key;
+  }
   r.bytesInto(t.mimetype, r.u8("mimetype"), "mimetype");
   const auto encoding = r.u8("encoding");
   if (r.ok() && encoding > 1) r.fail("unknown encoding " + std::to_string(encoding));
