@@ -330,7 +330,7 @@ struct Kernel::Impl {
       if (out.frameCount > 0) {
         network->sendFrames(out.destination, std::move(out.frames), out.frameCount);
       } else if (out.update) {
-        network->sendUpdate(out.destination, incarnation, *out.update);
+        network->sendUpdate(out.destination, incarnation, out.update);
       } else {
         network->send(wire::RoutedMessage{wire::Envelope{0, out.destination, wire::kDefaultTtl},
                                           std::move(*out.body)});

@@ -268,7 +268,16 @@ void Replication::push(Outgoing outgoing) {
 }
 
 void Replication::pushUpdate(PeisId destination, const TuplePtr& tuple) {
-  if (outboxBytes_ < kTrackOutboxAbove) return appendFrame(destination, *tuple);
+  const bool big = tuple->data.size() >= wire::kZeroCopyDataBytes;
+  if (outboxBytes_ < kTrackOutboxAbove && !big) return appendFrame(destination, *tuple);
+  if (outboxBytes_ < kTrackOutboxAbove) {
+    // A big tuple is not copied into a frame: the link writes its data from
+    // the tuple itself.
+    forgetPending(destination);
+    outbox_.emplace_back(destination, tuple);
+    outboxBytes_ += wire::tupleUpdateFrameBytes(*tuple);
+    return;
+  }
   // Backed up (the links are congested): queue the tuple itself, so that a
   // newer value can still take its place.
   const auto bytes = wire::tupleUpdateFrameBytes(*tuple);

@@ -38,7 +38,9 @@ constexpr std::uint8_t kWithdrawn = 255;  // a route entry that is no longer val
 constexpr std::size_t kReadChunk = 32 * 1024;
 constexpr std::size_t kWriteChunk = 256 * 1024;
 constexpr std::size_t kOwnChunkBytes = 4 * 1024;  // queued bytes moved in as a chunk of their own
-constexpr std::size_t kGatherChunks = 16;         // chunks per gathered write, at most
+// Tuple data from this size on is written from the tuple, not copied.
+constexpr std::size_t kZeroCopyBytes = wire::kZeroCopyDataBytes;
+constexpr std::size_t kGatherChunks = 16;  // chunks per gathered write, at most
 constexpr std::size_t kGatherBytes = 1024 * 1024;
 constexpr std::chrono::milliseconds kAdvertDelay{100};
 constexpr std::chrono::milliseconds kRedialPeriod{1000};
@@ -119,7 +121,8 @@ class Network::Impl {
   void start();
   void stop();
   bool send(wire::RoutedMessage message);
-  bool sendUpdate(PeisId destination, std::uint64_t incarnation, const Tuple& tuple);
+  bool sendUpdate(PeisId destination, std::uint64_t incarnation,
+                  const std::shared_ptr<const Tuple>& tuple);
   bool sendFrames(PeisId destination, std::string&& frames, std::uint32_t count);
   std::vector<PeerInfo> peers() const;
   std::vector<LinkInfo> links() const;
@@ -251,26 +254,18 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
 
   // Tuple updates are plain frames here; the Kernel coalesces them before
   // they reach a link, when the links are congested (see congested()). The
-  // frame is encoded straight into the write queue.
-  void sendUpdate(const wire::Envelope& envelope, std::uint64_t incarnation, const Tuple& tuple) {
+  // frame is encoded straight into the write queue; the data of a big tuple
+  // is written from the tuple itself, which the queue keeps alive.
+  void sendUpdate(const wire::Envelope& envelope, std::uint64_t incarnation,
+                  const std::shared_ptr<const Tuple>& tuple) {
     if (closed_) return;
-    const auto bytes = wire::tupleUpdateFrameBytes(tuple);
-    if (bytes >= kWriteChunk / 8) {
-      // A big frame becomes a chunk of its own: later frames are not
-      // appended to it (no copy of it when the next ones are queued).
-      chunks_.emplace_back().reserve(bytes);
-      wire::encodeTupleUpdate(envelope, incarnation, tuple, chunks_.back());
-      chunks_.emplace_back();
+    const auto bytes = wire::tupleUpdateFrameBytes(*tuple);
+    if (tuple->data.size() >= kZeroCopyBytes) {
+      auto& chunk = chunks_.emplace_back();
+      wire::encodeTupleUpdate(envelope, incarnation, *tuple, chunk.bytes, wire::TupleData::Omit);
+      chunk.tail = tuple;
     } else {
-      // A stream of small frames fills a chunk without regrowing it (a full
-      // chunk, or one moved in by sendBytes, is never copied to grow).
-      if (chunks_.empty() || chunks_.back().size() >= kWriteChunk ||
-          (!chunks_.back().empty() && chunks_.back().capacity() < chunks_.back().size() + bytes)) {
-        chunks_.emplace_back();
-      }
-      auto& chunk = chunks_.back();
-      if (chunk.capacity() < chunk.size() + bytes) chunk.reserve(kWriteChunk + kWriteChunk / 8);
-      wire::encodeTupleUpdate(envelope, incarnation, tuple, chunk);
+      wire::encodeTupleUpdate(envelope, incarnation, *tuple, appendable(bytes));
     }
     queued_ += bytes;
     ++net_.counters_.framesOut;
@@ -284,10 +279,9 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
     queued_ += bytes.size();
     net_.counters_.framesOut += frames;
     if (bytes.size() >= kOwnChunkBytes) {
-      chunks_.push_back(std::move(bytes));
+      chunks_.emplace_back().bytes = std::move(bytes);
     } else {
-      if (chunks_.empty() || chunks_.back().size() >= kWriteChunk) chunks_.emplace_back();
-      chunks_.back().append(bytes);
+      appendable(bytes.size()).append(bytes);
     }
     write();
   }
@@ -336,10 +330,24 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   // Frames wait in chunks of about kWriteChunk bytes, so the backlog drains
   // (and coalescing ends) gradually while a slow reader catches up.
   void enqueue(std::string_view frame) {
-    if (chunks_.empty() || chunks_.back().size() >= kWriteChunk) chunks_.emplace_back();
-    chunks_.back().append(frame);
+    appendable(frame.size()).append(frame);
     queued_ += frame.size();
     ++net_.counters_.framesOut;
+  }
+
+  // The chunk to append `bytes` of frames to: the last one, unless it is
+  // full, ends in a tuple's data, or would have to grow (a copy).
+  std::string& appendable(std::size_t bytes) {
+    if (chunks_.empty() || chunks_.back().tail || chunks_.back().bytes.size() >= kWriteChunk ||
+        (!chunks_.back().bytes.empty() &&
+         chunks_.back().bytes.capacity() < chunks_.back().bytes.size() + bytes)) {
+      chunks_.emplace_back();
+    }
+    auto& chunk = chunks_.back().bytes;
+    if (chunk.capacity() < chunk.size() + bytes) {
+      chunk.reserve(std::max(chunk.size() + bytes, kWriteChunk + kWriteChunk / 8));
+    }
+    return chunk;
   }
 
   // Writes the queued chunks, several in one gathered write.
@@ -347,7 +355,7 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
     if (writing_ || closed_) return;
     std::size_t bytes = 0;
     while (!chunks_.empty() && outChunks_.size() < kGatherChunks && bytes < kGatherBytes) {
-      if (!chunks_.front().empty()) {
+      if (chunks_.front().size() > 0) {
         bytes += chunks_.front().size();
         outChunks_.push_back(std::move(chunks_.front()));
       }
@@ -357,7 +365,10 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
     queued_ -= bytes;
     inFlight_ = bytes;
     outBuffers_.clear();
-    for (const auto& chunk : outChunks_) outBuffers_.emplace_back(asio::buffer(chunk));
+    for (const auto& chunk : outChunks_) {
+      outBuffers_.emplace_back(asio::buffer(chunk.bytes));
+      if (chunk.tail) outBuffers_.emplace_back(asio::buffer(chunk.tail->data));
+    }
     writing_ = true;
     lastSent_ = SteadyClock::now();  // what is queued goes out now
     asio::async_write(
@@ -442,10 +453,17 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
 
   std::string in_;
   std::size_t inPos_ = 0, inEnd_ = 0;
-  std::vector<std::string> outChunks_;  // being written
+  // Frames waiting to be written: bytes, then (when set) a tuple's data,
+  // which is the end of the frame those bytes begin.
+  struct Chunk {
+    std::string bytes;
+    std::shared_ptr<const Tuple> tail;
+    std::size_t size() const { return bytes.size() + (tail ? tail->data.size() : 0); }
+  };
+  std::vector<Chunk> outChunks_;  // being written
   std::vector<asio::const_buffer> outBuffers_;
   std::size_t inFlight_ = 0;
-  std::deque<std::string> chunks_;
+  std::deque<Chunk> chunks_;
   std::size_t queued_ = 0;
   bool writing_ = false;
   std::string closeReason_;
@@ -841,7 +859,8 @@ bool Network::Impl::send(wire::RoutedMessage message) {
   return forward(message.envelope.destination, wire::encodeFrame(message));
 }
 
-bool Network::Impl::sendUpdate(PeisId destination, std::uint64_t incarnation, const Tuple& tuple) {
+bool Network::Impl::sendUpdate(PeisId destination, std::uint64_t incarnation,
+                               const std::shared_ptr<const Tuple>& tuple) {
   auto route = routes_.find(destination);
   if (route == routes_.end() || route->second.hops == 0) {
     ++counters_.unroutable;
@@ -1221,7 +1240,8 @@ Network::~Network() = default;
 void Network::start() { impl_->start(); }
 void Network::stop() { impl_->stop(); }
 bool Network::send(wire::RoutedMessage message) { return impl_->send(std::move(message)); }
-bool Network::sendUpdate(PeisId destination, std::uint64_t incarnation, const Tuple& tuple) {
+bool Network::sendUpdate(PeisId destination, std::uint64_t incarnation,
+                         const std::shared_ptr<const Tuple>& tuple) {
   return impl_->sendUpdate(destination, incarnation, tuple);
 }
 bool Network::sendFrames(PeisId destination, std::string&& frames, std::uint32_t count) {

@@ -100,8 +100,10 @@ class Network {
   // True while some link has more than coalesceAboveBytes queued; then
   // Events::onWritable fires once they have drained to half of that.
   bool congested();
-  // Sends a tuple update encoded straight from the stored tuple.
-  bool sendUpdate(PeisId destination, std::uint64_t ownerIncarnation, const Tuple& tuple);
+  // Sends a tuple update encoded straight from the stored tuple (whose data,
+  // when big, is written from the tuple itself: the link keeps it alive).
+  bool sendUpdate(PeisId destination, std::uint64_t ownerIncarnation,
+                  const std::shared_ptr<const Tuple>& tuple);
   // Sends `count` whole routed frames for `destination`, already encoded
   // with this PEIS as their source.
   bool sendFrames(PeisId destination, std::string&& frames, std::uint32_t count);

@@ -209,6 +209,21 @@ std::int64_t micros(Timestamp t) { return t.time_since_epoch().count(); }
 Timestamp fromMicros(std::int64_t v) { return Timestamp(std::chrono::microseconds(v)); }
 
 // The tuple's fields, for the growing Writer and the in-place RawWriter.
+// Every field up to the data length (the data bytes come last).
+template <typename W>
+void writeTupleHead(W& w, const Tuple& t) {
+  w.i32(t.owner);
+  w.i32(t.creator);
+  w.str16(t.key);
+  w.str8(t.mimetype);
+  w.u8(static_cast<std::uint8_t>(t.encoding));
+  w.i64(micros(t.ts_write));
+  w.i64(micros(t.ts_user));
+  w.i64(micros(t.ts_expire));
+  w.u64(t.seqno);
+  w.u32(static_cast<std::uint32_t>(t.data.size()));
+}
+
 template <typename W>
 void writeTuple(W& w, const Tuple& t) {
   w.i32(t.owner);
@@ -507,11 +522,11 @@ std::size_t tupleUpdateFrameBytes(const Tuple& tuple) {
 }
 
 void encodeTupleUpdate(const Envelope& envelope, std::uint64_t ownerIncarnation, const Tuple& tuple,
-                       std::string& out) {
+                       std::string& out, TupleData data) {
   // Sized once and written in place: this runs once per update sent.
   const auto bytes = tupleUpdateFrameBytes(tuple);
   const auto start = out.size();
-  out.resize(start + bytes);
+  out.resize(start + bytes - (data == TupleData::Omit ? tuple.data.size() : 0));
   RawWriter w(out.data() + start);
   w.u32(static_cast<std::uint32_t>(bytes - kFrameHeaderBytes));
   w.u8(static_cast<std::uint8_t>(MessageType::TupleUpdate));
@@ -519,6 +534,7 @@ void encodeTupleUpdate(const Envelope& envelope, std::uint64_t ownerIncarnation,
   w.i32(envelope.destination);
   w.u8(envelope.ttl);
   w.u64(ownerIncarnation);
+  if (data == TupleData::Omit) return writeTupleHead(w, tuple);
   writeTuple(w, tuple);
 }
 

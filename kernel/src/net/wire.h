@@ -121,9 +121,12 @@ void encode(const RoutedMessage& message, std::string& out);
 std::string encodeFrame(const RoutedMessage& message);
 // A TupleUpdate frame straight from a stored tuple (no intermediate copy),
 // appended to `out`; tupleUpdateFrameBytes() is its size, length included.
+// With TupleData::Omit the data bytes are left out (the length field still
+// counts them): the caller sends tuple.data right after, from where it is.
+enum class TupleData { Include, Omit };
 std::size_t tupleUpdateFrameBytes(const Tuple& tuple);
 void encodeTupleUpdate(const Envelope& envelope, std::uint64_t ownerIncarnation, const Tuple& tuple,
-                       std::string& out);
+                       std::string& out, TupleData data = TupleData::Include);
 // Rewrites the envelope of an encoded routed frame in place.
 void reEnvelope(std::string& frame, const Envelope& envelope);
 

@@ -47,6 +47,9 @@ inline constexpr std::size_t kFrameHeaderBytes = 4;
 // Largest frame: the largest data any PEIS accepts plus room for the fields.
 inline constexpr std::size_t kMaxFrameOverhead = 64 * 1024;
 inline constexpr std::uint8_t kDefaultTtl = 32;
+// Tuple data from this size on is sent from the stored tuple (gathered
+// write), not copied into an encoded frame.
+inline constexpr std::size_t kZeroCopyDataBytes = 16 * 1024;
 
 enum class MessageType : std::uint8_t {
   Hello = 1,
