@@ -195,21 +195,24 @@ struct Kernel::Impl {
   std::deque<TupleSpace::Delivery> batch;
 
   void drain() {
-    if (batch.empty()) {
-      std::lock_guard lock(mu);
-      space.takeAllDeliveries(batch);  // a swap: one lock for all queued
+    for (std::size_t ran = 0;; ++ran) {
       if (batch.empty()) {
-        if (space.allKeysDirty()) {
-          space.flushAllKeys();
-          if (waiters > 0) changed.notify_all();
-          asio::post(io, [this] { drain(); });
+        std::lock_guard lock(mu);
+        space.takeAllDeliveries(batch);  // a swap: one lock for all queued
+        if (batch.empty()) {
+          if (space.allKeysDirty()) {
+            space.flushAllKeys();  // may queue deliveries of its own
+            if (waiters > 0) changed.notify_all();
+            continue;
+          }
+          drainScheduled = false;
           return;
         }
-        drainScheduled = false;
+      }
+      if (ran == kDeliveriesPerTurn) {
+        asio::post(io, [this] { drain(); });  // more: yield to timers and sockets first
         return;
       }
-    }
-    for (std::size_t n = 0; n < kDeliveriesPerTurn && !batch.empty(); ++n) {
       const auto& delivery = batch.front();
       // Each throwing callback is counted; the others for the event still run.
       delivery.run([&](std::exception_ptr error) {
@@ -225,7 +228,6 @@ struct Kernel::Impl {
       });
       batch.pop_front();
     }
-    asio::post(io, [this] { drain(); });  // more, or a last look: yield to timers first
   }
 
   void noteExpiry(const Tuple& tuple) {
@@ -725,8 +727,17 @@ std::string Kernel::name() const { return impl_->name; }
 const Options& Kernel::options() const { return impl_->options; }
 
 Tuple Kernel::set(std::string_view key, std::string data, const WriteOptions& options) {
-  auto tuple = impl_->mutate([&](TupleSpace& s) { return s.set(key, std::move(data), options); });
+  bool backedUp = false;
+  auto tuple = impl_->mutate([&](TupleSpace& s) {
+    auto stored = s.set(key, std::move(data), options);
+    backedUp = impl_->replication.outboxBytes() >= Replication::kTrackOutboxAbove;
+    return stored;
+  });
   impl_->noteExpiry(*tuple);
+  // A writer that outruns the network (its updates have started to wait in
+  // the outbox, to be coalesced) gives up the rest of its time slice, so the
+  // threads that send and deliver get the CPU its next writes would take.
+  if (backedUp && !onKernelThread()) std::this_thread::yield();
   return *tuple;
 }
 

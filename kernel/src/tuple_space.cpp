@@ -104,7 +104,7 @@ void TupleSpace::changeSelf(PeisId newId) {
   if (!isValidPeisId(newId)) {
     throw Error(ErrorCode::InvalidArgument, "invalid PEIS id " + std::to_string(newId));
   }
-  hasLastAccepted_ = false;
+  hasLastEntry_ = false;
   std::vector<Tuple> own;
   for (auto it = tuples_.lower_bound(TupleRef{self_, ""});
        it != tuples_.end() && it->first.owner == self_;) {
@@ -146,22 +146,33 @@ TuplePtr TupleSpace::live(const TuplePtr& tuple) const {
   return tuple;
 }
 
+bool TupleSpace::isLastEntry(PeisId owner, std::string_view key) const {
+  return hasLastEntry_ && lastEntry_->first.owner == owner && lastEntry_->first.key == key;
+}
+
 TuplePtr TupleSpace::store(Tuple&& tuple) {
-  auto ref = refOf(tuple);
   auto ptr = std::make_shared<const Tuple>(std::move(tuple));
-  auto [it, inserted] = tuples_.insert_or_assign(std::move(ref), ptr);
-  if (inserted && ptr->owner == self_) allKeysDirty_ = true;
+  if (isLastEntry(ptr->owner, ptr->key)) {
+    lastEntry_->second = ptr;
+  } else {
+    auto [it, inserted] = tuples_.insert_or_assign(refOf(*ptr), ptr);
+    if (inserted && ptr->owner == self_) allKeysDirty_ = true;
+    lastEntry_ = it;
+    hasLastEntry_ = true;
+  }
   queueEvent(EventKind::Changed, ptr);
   return ptr;
 }
 
 TuplePtr TupleSpace::set(std::string_view key, std::string data, const WriteOptions& options,
                          PeisId creator) {
-  validateKey(key);
+  if (!isLastEntry(self_, key)) validateKey(key);  // a key already held was checked before
   checkData(data.size());
   checkMimetype(options.mimetype);
   const auto now = clock_();
-  auto& seqno = ownSeqnos_[std::string(key)];
+  auto seqnoIt = ownSeqnos_.find(key);
+  if (seqnoIt == ownSeqnos_.end()) seqnoIt = ownSeqnos_.emplace(std::string(key), 0).first;
+  auto& seqno = seqnoIt->second;
   Tuple tuple;
   tuple.owner = self_;
   tuple.creator = creator == 0 ? self_ : creator;
@@ -232,7 +243,7 @@ bool TupleSpace::erase(std::string_view key) {
 }
 
 void TupleSpace::remove(std::map<TupleRef, TuplePtr>::iterator it, std::uint64_t seqno) {
-  hasLastAccepted_ = false;
+  hasLastEntry_ = false;
   Tuple last = *it->second;
   last.seqno = seqno;
   if (last.owner == self_) {
@@ -246,16 +257,14 @@ void TupleSpace::remove(std::map<TupleRef, TuplePtr>::iterator it, std::uint64_t
 bool TupleSpace::accept(Tuple&& tuple) {
   if (tuple.owner == self_ || !isValidPeisId(tuple.owner)) return false;
   checkData(tuple.data.size());
-  const bool same = hasLastAccepted_ && lastAccepted_->first.owner == tuple.owner &&
-                    lastAccepted_->first.key == tuple.key;
-  auto it = same ? lastAccepted_ : tuples_.find(refOf(tuple));
+  auto it = isLastEntry(tuple.owner, tuple.key) ? lastEntry_ : tuples_.find(refOf(tuple));
   if (it == tuples_.end()) {
     if (keyProblem(tuple.key)) return false;  // a key already held was checked before
     store(std::move(tuple));
     return true;
   }
-  lastAccepted_ = it;
-  hasLastAccepted_ = true;
+  lastEntry_ = it;
+  hasLastEntry_ = true;
   if (it->second->seqno >= tuple.seqno) return false;
   auto ptr = std::make_shared<const Tuple>(std::move(tuple));
   it->second = ptr;  // one lookup: replaced in place

@@ -194,10 +194,11 @@ class TupleSpace {
   Clock clock_;
   SpaceLimits limits_;
   std::map<TupleRef, TuplePtr> tuples_;
-  // The entry accept() found last (a stream updates one key over and over);
-  // forgotten whenever an entry is erased.
-  std::map<TupleRef, TuplePtr>::iterator lastAccepted_;
-  bool hasLastAccepted_ = false;
+  // The entry stored or accepted last (a stream updates one key over and
+  // over); forgotten whenever an entry is erased.
+  std::map<TupleRef, TuplePtr>::iterator lastEntry_;
+  bool hasLastEntry_ = false;
+  bool isLastEntry(PeisId owner, std::string_view key) const;
   // Last seqno ever used per own key, so a re-created key keeps increasing.
   std::map<std::string, std::uint64_t, std::less<>> ownSeqnos_;
   std::map<CallbackId, std::shared_ptr<Entry>> callbacks_;
