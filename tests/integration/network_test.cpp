@@ -860,3 +860,40 @@ TEST_CASE("a write gate holds a remote set until it accepts or refuses it", "[in
   CHECK(accepted == static_cast<int>(peis::ErrorCode::Unreachable) + 1000);
   CHECK(owner.get("level")->data == "70");
 }
+
+// A writer streams as fast as it can, mixing small tuples (encoded into the
+// outbox at once) with big ones (written from the stored tuple): the
+// subscriber sees seqnos only increasing, each value intact, and the final
+// value, however many intermediate ones were coalesced under the load.
+TEST_CASE("a fast stream of small and big tuples arrives in order, intact, with its final value",
+          "[integration]") {
+  const auto ecology = uniqueEcology("stream");
+  peis::Kernel writer(kernelOptions(ecology, "writer", false));
+  peis::Kernel reader(kernelOptions(ecology, "reader", false, {localhost(writer.port())}));
+  REQUIRE_WAIT([&] { return hasPeer(reader, writer.id()); }, kDeadline);
+  // The value of seqno n: its size cycles through 16 B, 20 KiB and 64 KiB
+  // (the last two above the 16 KiB of the zero-copy path), its bytes name n.
+  auto valueFor = [](std::uint64_t n) {
+    const std::size_t sizes[] = {16, 20 * 1024, 64 * 1024};
+    return std::string(sizes[n % 3], static_cast<char>('a' + n % 26));
+  };
+  std::atomic<std::uint64_t> last{0}, delivered{0}, wrong{0};
+  reader.onChange(peis::Pattern::exact(writer.id(), "stream"), [&](const peis::Tuple& t) {
+    if (t.seqno <= last || t.data != valueFor(t.seqno)) ++wrong;
+    last = t.seqno;
+    ++delivered;
+  });
+  reader.subscribe(peis::Pattern::exact(writer.id(), "stream"));
+  REQUIRE_WAIT(
+      [&] { return listContains(writer.get(peis::special::kSubscribers)->data, reader.id()); },
+      kDeadline);
+  constexpr std::uint64_t kWrites = 3000;
+  for (std::uint64_t n = 1; n <= kWrites; ++n) {
+    CHECK(writer.set("stream", valueFor(n)).seqno == n);
+  }
+  REQUIRE_WAIT([&] { return last == kWrites; }, kDeadline);
+  CHECK(wrong == 0);
+  CHECK(reader.get(writer.id(), "stream")->data == valueFor(kWrites));
+  INFO("delivered " << delivered << ", coalesced " << writer.networkStats().coalesced);
+  CHECK(delivered + writer.networkStats().coalesced >= kWrites);
+}

@@ -941,3 +941,39 @@ TEST_CASE("flushAllKeys writes the sorted own keys only when they changed", "[un
   CHECK(space.get(kSelf, "kernel.all-keys")->data == "kernel.all-keys kernel.name zeta");
   CHECK(space.seqno(kSelf, "kernel.all-keys") == 5);
 }
+
+TEST_CASE("a stream to one key, then its entry erased: nothing stale is remembered",
+          "[unit][tuple-space]") {
+  ManualClock clock;
+  TupleSpace space(kSelf, [&] { return clock.now; });
+  // Own key: set twice (the second set reuses the remembered entry), erase,
+  // set again: a fresh entry with the next seqno.
+  space.set("stream", "1");
+  space.set("stream", "2");
+  REQUIRE(space.erase("stream"));
+  CHECK_FALSE(space.get(kSelf, "stream"));
+  CHECK(space.set("stream", "4")->seqno == 4);
+  CHECK(space.get(kSelf, "stream")->data == "4");
+  CHECK_THROWS_MATCHES(space.set("bad..key", "x"), Error, HasCode(ErrorCode::InvalidKey));
+
+  // Another owner's key: accepted twice, then the owner is forgotten; the
+  // same key is a new entry again (a lower seqno is accepted: the owner
+  // restarted).
+  REQUIRE(space.accept(remoteTuple(9, "pos", "a", 5)));
+  REQUIRE(space.accept(remoteTuple(9, "pos", "b", 6)));
+  CHECK_FALSE(space.accept(remoteTuple(9, "pos", "old", 6)));
+  CHECK(space.forgetOwner(9) == 1);
+  CHECK_FALSE(space.get(9, "pos"));
+  REQUIRE(space.accept(remoteTuple(9, "pos", "again", 1)));
+  CHECK(space.get(9, "pos")->data == "again");
+
+  // Expiry erases too.
+  peis::WriteOptions ttl;
+  ttl.ttl = 1s;
+  space.set("brief", "x", ttl);
+  space.set("brief", "y", ttl);
+  clock.now += 2s;
+  CHECK(space.expire() == 1);
+  CHECK(space.set("brief", "z")->seqno == 4);
+  CHECK(space.get(kSelf, "brief")->data == "z");
+}

@@ -560,4 +560,67 @@ TEST_CASE("wire: malformed frames are rejected with a reason", "[unit][wire]") {
   }
 }
 
+TEST_CASE("wire: decodeRouted reads into a reused message exactly what decode() reads",
+          "[unit][wire]") {
+  // One message object for every frame, as a link's inbox reuses its slots:
+  // nothing of an earlier (longer) body may leak into a later one.
+  RoutedMessage reused;
+  std::string error;
+  auto longer = sampleTuple();
+  longer.key = "a.much.longer.key.than.the.next.one";
+  longer.data = std::string(900, 'd');
+  longer.mimetype = "application/x-long-mimetype";
+  REQUIRE(decodeRouted(bodyOf(frameOf(RoutedMessage{Envelope{1, 2, 3}, TupleUpdate{5, longer}})),
+                       kLimit, reused, error));
+  for (const auto& [name, frame] : sampleFrames()) {
+    INFO(name);
+    const auto decoded = decode(bodyOf(frame), kLimit);
+    REQUIRE(decoded.message);
+    const auto* routed = std::get_if<RoutedMessage>(&*decoded.message);
+    error.clear();
+    if (!routed) {  // a link message is not for decodeRouted
+      CHECK_FALSE(isRoutedFrame(bodyOf(frame)));
+      CHECK_FALSE(decodeRouted(bodyOf(frame), kLimit, reused, error));
+      CHECK_THAT(error, Catch::Contains("unknown routed message type"));
+      continue;
+    }
+    CHECK(isRoutedFrame(bodyOf(frame)));
+    REQUIRE(decodeRouted(bodyOf(frame), kLimit, reused, error));
+    CHECK(reused == *routed);
+    CHECK(error.empty());
+  }
+  SECTION("a malformed routed frame fails with decode()'s reason") {
+    auto frame = frameOf(RoutedMessage{sampleEnvelope(), TupleUpdate{70, sampleTuple()}});
+    frame.pop_back();  // one data byte short
+    const auto reason = rejectFrame(frame);
+    CHECK_FALSE(decodeRouted(bodyOf(frame), kLimit, reused, error));
+    CHECK(error == reason);
+    CHECK_FALSE(decodeRouted(std::string_view{}, kLimit, reused, error));
+    CHECK(error == "empty frame");
+  }
+  SECTION("a bad key is rejected even right after a good key was read") {
+    auto good = sampleTuple();
+    REQUIRE(decodeRouted(bodyOf(frameOf(RoutedMessage{sampleEnvelope(), TupleUpdate{1, good}})),
+                         kLimit, reused, error));
+    REQUIRE(decodeRouted(bodyOf(frameOf(RoutedMessage{sampleEnvelope(), TupleUpdate{1, good}})),
+                         kLimit, reused, error));
+    auto bad = good;
+    bad.key = "robot..x";
+    CHECK_FALSE(decodeRouted(bodyOf(frameOf(RoutedMessage{sampleEnvelope(), TupleUpdate{1, bad}})),
+                             kLimit, reused, error));
+    CHECK_THAT(error, Catch::Contains("bad tuple key"));
+  }
+}
+
+TEST_CASE("wire: a TupleUpdate encoded without its data, followed by the data, is the whole frame",
+          "[unit][wire]") {
+  auto t = sampleTuple();
+  t.data = std::string(20000, 'z');
+  std::string whole, head = "prefix";
+  encodeTupleUpdate(sampleEnvelope(), 70, t, whole);
+  encodeTupleUpdate(sampleEnvelope(), 70, t, head, TupleData::Omit);
+  CHECK(head.size() == 6 + whole.size() - t.data.size());
+  CHECK(head.substr(6) + t.data == whole);
+  CHECK(whole.size() == tupleUpdateFrameBytes(t));
+}
 }  // namespace peis::wire
