@@ -304,12 +304,15 @@ struct Kernel::Impl {
   // --- network glue (kernel thread) -------------------------------------------
   std::vector<Replication::Outgoing> outgoing;  // kernel thread: flush's, reused
   asio::steady_timer flushTimer{io};
+  std::vector<std::string> sentFrames;  // kernel thread: frames handed to links
 
   void flush() {
     if (network && network->congested()) return;  // onWritable posts flush again
     outgoing.clear();
     {
       std::lock_guard lock(mu);
+      for (auto& frames : sentFrames) replication.recycleFrames(std::move(frames));
+      sentFrames.clear();
       replication.takeOutbox(outgoing, kMessagesPerTurn, kBytesPerTurn);
       std::size_t messages = 0;
       for (const auto& out : outgoing) messages += out.frameCount > 0 ? out.frameCount : 1;
@@ -330,7 +333,8 @@ struct Kernel::Impl {
     for (auto& out : outgoing) {
       if (!network) break;
       if (out.frameCount > 0) {
-        network->sendFrames(out.destination, std::move(out.frames), out.frameCount);
+        network->sendFrames(out.destination, out.frames, out.frameCount);
+        sentFrames.push_back(std::move(out.frames));  // its memory goes back at the next flush
       } else if (out.update) {
         network->sendUpdate(out.destination, incarnation, out.update);
       } else {

@@ -305,7 +305,12 @@ void Replication::appendFrame(PeisId destination, const Tuple& tuple) {
   if (!extend) {
     forgetPending(destination);  // no waiting update may be replaced across these frames
     outbox_.emplace_back().destination = destination;
-    outbox_.back().frames.reserve(4096);
+    if (!spareFrames_.empty()) {
+      outbox_.back().frames = std::move(spareFrames_.back());
+      spareFrames_.pop_back();
+    } else {
+      outbox_.back().frames.reserve(4096);
+    }
   }
   auto& entry = outbox_.back();
   const auto before = entry.frames.size();
@@ -338,6 +343,13 @@ void Replication::takeOutbox(std::vector<Outgoing>& out, std::size_t most, std::
     pendingUpdates_.clear();
     outboxBytes_ = 0;
   }
+}
+
+void Replication::recycleFrames(std::string&& frames) {
+  constexpr std::size_t kSpares = 4;
+  if (spareFrames_.size() >= kSpares || frames.capacity() > 2 * kFramesPerEntryBytes) return;
+  frames.clear();
+  spareFrames_.push_back(std::move(frames));
 }
 
 void Replication::onSelfChanged() {

@@ -93,6 +93,9 @@ class Replication {
   // This PEIS took a new id: frames encoded with the old one are dropped
   // (subscribers re-sync with the new id).
   void onSelfChanged();
+  // Gives back the memory of an entry's frames once they were handed on, for
+  // the next run of frames (a stream then allocates none).
+  void recycleFrames(std::string&& frames);
   bool hasOutgoing() const { return !outbox_.empty(); }
   std::uint64_t staleDropped() const { return staleDropped_; }
   // Renewals that showed a subscriber missing values, answered by a resync.
@@ -126,7 +129,8 @@ class Replication {
   void appendFrame(PeisId destination, const Tuple& tuple);
   void forgetPending(PeisId destination);
   std::deque<Outgoing> outbox_;
-  std::size_t outboxBytes_ = 0;   // of updates (frames and tuples) waiting
+  std::size_t outboxBytes_ = 0;  // of updates (frames and tuples) waiting
+  std::vector<std::string> spareFrames_;
   std::uint64_t outboxBase_ = 0;  // absolute index of outbox_.front()
   std::map<std::pair<PeisId, std::string>, std::uint64_t> pendingUpdates_;
   std::uint64_t coalesced_ = 0;

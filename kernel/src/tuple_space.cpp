@@ -170,9 +170,13 @@ TuplePtr TupleSpace::set(std::string_view key, std::string data, const WriteOpti
   checkData(data.size());
   checkMimetype(options.mimetype);
   const auto now = clock_();
-  auto seqnoIt = ownSeqnos_.find(key);
-  if (seqnoIt == ownSeqnos_.end()) seqnoIt = ownSeqnos_.emplace(std::string(key), 0).first;
-  auto& seqno = seqnoIt->second;
+  // Entries of ownSeqnos_ are never erased: the one used last stays valid.
+  if (!hasLastSeqno_ || lastSeqno_->first != key) {
+    lastSeqno_ = ownSeqnos_.find(key);
+    if (lastSeqno_ == ownSeqnos_.end()) lastSeqno_ = ownSeqnos_.emplace(std::string(key), 0).first;
+    hasLastSeqno_ = true;
+  }
+  auto& seqno = lastSeqno_->second;
   Tuple tuple;
   tuple.owner = self_;
   tuple.creator = creator == 0 ? self_ : creator;

@@ -201,6 +201,8 @@ class TupleSpace {
   bool isLastEntry(PeisId owner, std::string_view key) const;
   // Last seqno ever used per own key, so a re-created key keeps increasing.
   std::map<std::string, std::uint64_t, std::less<>> ownSeqnos_;
+  std::map<std::string, std::uint64_t, std::less<>>::iterator lastSeqno_;
+  bool hasLastSeqno_ = false;
   std::map<CallbackId, std::shared_ptr<Entry>> callbacks_;
   std::map<CallbackId, std::shared_ptr<Indirect>> indirects_;
   std::deque<Delivery> queue_;

@@ -37,7 +37,6 @@ constexpr int kMaxHops = 32;
 constexpr std::uint8_t kWithdrawn = 255;  // a route entry that is no longer valid
 constexpr std::size_t kReadChunk = 32 * 1024;
 constexpr std::size_t kWriteChunk = 256 * 1024;
-constexpr std::size_t kOwnChunkBytes = 4 * 1024;  // queued bytes moved in as a chunk of their own
 // Tuple data from this size on is written from the tuple, not copied.
 constexpr std::size_t kZeroCopyBytes = wire::kZeroCopyDataBytes;
 constexpr std::size_t kGatherChunks = 16;  // chunks per gathered write, at most
@@ -123,7 +122,7 @@ class Network::Impl {
   bool send(wire::RoutedMessage message);
   bool sendUpdate(PeisId destination, std::uint64_t incarnation,
                   const std::shared_ptr<const Tuple>& tuple);
-  bool sendFrames(PeisId destination, std::string&& frames, std::uint32_t count);
+  bool sendFrames(PeisId destination, std::string_view frames, std::uint32_t count);
   std::vector<PeerInfo> peers() const;
   std::vector<LinkInfo> links() const;
 
@@ -272,17 +271,13 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
     write();
   }
 
-  // Queues whole frames encoded elsewhere; a run of a few KiB or more
-  // becomes a chunk of its own (moved, not copied).
-  void sendBytes(std::string&& bytes, std::uint32_t frames) {
+  // Queues whole frames encoded elsewhere (copied into the write buffer,
+  // whose memory the link reuses).
+  void sendBytes(std::string_view bytes, std::uint32_t frames) {
     if (closed_ || bytes.empty()) return;
     queued_ += bytes.size();
     net_.counters_.framesOut += frames;
-    if (bytes.size() >= kOwnChunkBytes) {
-      chunks_.emplace_back().bytes = std::move(bytes);
-    } else {
-      appendable(bytes.size()).append(bytes);
-    }
+    appendable(bytes.size()).append(bytes);
     write();
   }
 
@@ -341,13 +336,25 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
     if (chunks_.empty() || chunks_.back().tail || chunks_.back().bytes.size() >= kWriteChunk ||
         (!chunks_.back().bytes.empty() &&
          chunks_.back().bytes.capacity() < chunks_.back().bytes.size() + bytes)) {
-      chunks_.emplace_back();
+      chunks_.emplace_back().bytes = std::move(spareChunk_);
+      spareChunk_ = std::string();
     }
     auto& chunk = chunks_.back().bytes;
     if (chunk.capacity() < chunk.size() + bytes) {
       chunk.reserve(std::max(chunk.size() + bytes, kWriteChunk + kWriteChunk / 8));
     }
     return chunk;
+  }
+
+  // Keeps the memory of one written chunk for the next (a stream then
+  // allocates no write buffers); a huge one is let go.
+  void keepSpareChunk() {
+    for (auto& chunk : outChunks_) {
+      if (spareChunk_.capacity() >= kWriteChunk) return;
+      if (chunk.bytes.capacity() > kWriteChunk + kWriteChunk / 8) continue;
+      chunk.bytes.clear();
+      spareChunk_ = std::move(chunk.bytes);
+    }
   }
 
   // Writes the queued chunks, several in one gathered write.
@@ -375,6 +382,7 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
         socket_, outBuffers_,
         [self = shared_from_this()](const boost::system::error_code& ec, std::size_t) {
           self->writing_ = false;
+          self->keepSpareChunk();
           self->outChunks_.clear();
           self->inFlight_ = 0;
           if (ec) return self->close("write failed: " + ec.message());
@@ -461,6 +469,7 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
     std::size_t size() const { return bytes.size() + (tail ? tail->data.size() : 0); }
   };
   std::vector<Chunk> outChunks_;  // being written
+  std::string spareChunk_;        // the memory of a written chunk, for the next
   std::vector<asio::const_buffer> outBuffers_;
   std::size_t inFlight_ = 0;
   std::deque<Chunk> chunks_;
@@ -875,7 +884,7 @@ bool Network::Impl::sendUpdate(PeisId destination, std::uint64_t incarnation,
   return true;
 }
 
-bool Network::Impl::sendFrames(PeisId destination, std::string&& frames, std::uint32_t count) {
+bool Network::Impl::sendFrames(PeisId destination, std::string_view frames, std::uint32_t count) {
   auto route = routes_.find(destination);
   Link* link =
       route == routes_.end() || route->second.hops == 0 ? nullptr : findLink(route->second.nextHop);
@@ -883,7 +892,7 @@ bool Network::Impl::sendFrames(PeisId destination, std::string&& frames, std::ui
     counters_.unroutable += count;
     return false;
   }
-  link->sendBytes(std::move(frames), count);
+  link->sendBytes(frames, count);
   return true;
 }
 
@@ -1244,8 +1253,8 @@ bool Network::sendUpdate(PeisId destination, std::uint64_t incarnation,
                          const std::shared_ptr<const Tuple>& tuple) {
   return impl_->sendUpdate(destination, incarnation, tuple);
 }
-bool Network::sendFrames(PeisId destination, std::string&& frames, std::uint32_t count) {
-  return impl_->sendFrames(destination, std::move(frames), count);
+bool Network::sendFrames(PeisId destination, std::string_view frames, std::uint32_t count) {
+  return impl_->sendFrames(destination, frames, count);
 }
 bool Network::congested() { return impl_->congested(); }
 bool Network::reachable(PeisId id) const {

@@ -105,8 +105,8 @@ class Network {
   bool sendUpdate(PeisId destination, std::uint64_t ownerIncarnation,
                   const std::shared_ptr<const Tuple>& tuple);
   // Sends `count` whole routed frames for `destination`, already encoded
-  // with this PEIS as their source.
-  bool sendFrames(PeisId destination, std::string&& frames, std::uint32_t count);
+  // with this PEIS as their source (copied into the link's write buffer).
+  bool sendFrames(PeisId destination, std::string_view frames, std::uint32_t count);
 
   bool reachable(PeisId id) const;
   std::vector<PeerInfo> peers() const;
