@@ -406,19 +406,26 @@ ScaleResult scale(int n, const std::string& ecology) {
     nodes.push_back(std::make_unique<Child>(std::vector<std::string>{
         "--role", "node", "--ecology", ecology, "--id", std::to_string(1000 + i)}));
   }
-  peis::Kernel kernel(hostOptions(ecology, 1, true));
-  kernel.subscribe(peis::Pattern("v"));
   // PEIS_BENCH_PROGRESS=1: how many values (and peers) were seen when, to stderr.
   const bool progress = std::getenv("PEIS_BENCH_PROGRESS") != nullptr;
+  if (progress) {
+    std::fprintf(stderr, "scale %d: %.2f s: %d processes started\n", n,
+                 std::chrono::duration<double>(Clock::now() - start).count(), n);
+  }
+  peis::Kernel kernel(hostOptions(ecology, 1, true));
+  kernel.subscribe(peis::Pattern("v"));
   auto lastReport = Clock::now();
   const bool all = waitFor(
       [&] {
         const auto seen = kernel.find(peis::Pattern("v")).size();
         if (progress && Clock::now() - lastReport >= 250ms) {
           lastReport = Clock::now();
-          std::fprintf(stderr, "scale %d: %.2f s: %zu values, %zu peers\n", n,
+          long ticks = 0;
+          for (auto& node : nodes) ticks += procTicks(node->pid());
+          std::fprintf(stderr, "scale %d: %.2f s: %zu values, %zu peers, nodes' CPU %.2f s\n", n,
                        std::chrono::duration<double>(lastReport - start).count(), seen,
-                       kernel.peers().size());
+                       kernel.peers().size(),
+                       static_cast<double>(ticks) / static_cast<double>(sysconf(_SC_CLK_TCK)));
         }
         return seen >= static_cast<std::size_t>(n);
       },
@@ -446,7 +453,8 @@ ScaleResult scale(int n, const std::string& ecology) {
   return result;
 }
 
-// `sizes` ("16,1024"; empty: all) limits the throughput runs, for profiling.
+// `sizes` ("16,1024"; empty: all) limits the throughput runs (and for scale, the N), for
+// profiling.
 int runAll(const std::string& what, const std::string& sizes) {
   const std::string ecology = "bench-" + std::to_string(getpid());
   auto wanted = [&](const char* name) { return what == "all" || what == name; };
@@ -501,6 +509,10 @@ int runAll(const std::string& what, const std::string& sizes) {
         "| scale | N | all N values seen (s) | idle CPU per PEIS (%%) | RSS per PEIS (KiB) "
         "| PSS (KiB) | private (KiB) |\n|---|---|---|---|---|---|---|\n");
     for (int n : {10, 50, 200}) {
+      if (!sizes.empty() &&
+          ("," + sizes + ",").find("," + std::to_string(n) + ",") == std::string::npos) {
+        continue;
+      }
       const auto r = scale(n, ecology + "-scale" + std::to_string(n));
       std::printf("| processes on one host | %d | %.2f | %.3f | %.0f | %.0f | %.0f |\n", n,
                   r.secondsToAll, r.idleCpuPercent, r.rssKib, r.pssKib, r.privateKib);
@@ -517,7 +529,8 @@ int main(int argc, char** argv) {
   if (argc > 1 && (std::strcmp(argv[1], "--help") == 0 || std::strcmp(argv[1], "-h") == 0)) {
     std::printf(
         "Usage: peis-bench-net [all|rtt|throughput|join|scale] [SIZES]\n"
-        "SIZES (e.g. 16,1024) limits the one-writer throughput runs to those sizes.\n"
+        "SIZES (e.g. 16,1024) limits the one-writer throughput runs to those sizes,\n"
+        "and for scale (e.g. 200) the numbers of processes.\n"
         "Measures the ecology over loopback beside raw TCP; prints Markdown tables.\n");
     return 0;
   }

@@ -355,9 +355,7 @@ struct Kernel::Impl {
     log::debug(id, "PEIS " + std::to_string(peer.id) + " '" + peer.name + "' reachable in " +
                        std::to_string(peer.hops) + " hop(s)");
     replication.onPeerUp(peer.id, peer.incarnation);
-    snapshotPeers();
-    refreshMembershipTuples();
-    afterMutation();
+    afterMutation();  // the membership tuples follow with onTopology, once per change
   }
 
   // Asks the write gate about a remote set of an own tuple (outside the
@@ -392,9 +390,7 @@ struct Kernel::Impl {
       std::lock_guard lock(mu);
       log::debug(id, "PEIS " + std::to_string(peer) + " is gone");
       replication.onPeerDown(peer);
-      snapshotPeers();
-      refreshMembershipTuples();
-      refreshSubscribersTuple();
+      refreshSubscribersTuple();  // the membership tuples follow with onTopology
       afterMutation();
     }
     std::vector<std::uint64_t> failed;

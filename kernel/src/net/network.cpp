@@ -170,12 +170,21 @@ class Network::Impl {
     if (spareInbox_.capacity() < messages.capacity()) spareInbox_.swap(messages);
   }
   void collision(std::uint64_t otherIncarnation);
+  // Re-evaluates the routes of the ids in dirty_ (the only ones whose
+  // candidates changed since the last time), fires the events.
   void recompute();
+  // An advert entry from `from` changed: its id needs re-evaluating only if
+  // the entry could change its route (no route yet, a better one, or one
+  // from the current next hop).
+  void advertChanged(PeisId from, PeisId id, std::uint8_t hops);
   void scheduleAdvert();
   void scheduleRecompute();
   void debounce(asio::steady_timer& timer, bool& scheduled, std::chrono::milliseconds delay,
                 void (Impl::*work)());
+  // Sends each linked PEIS what changed in its view of the routes.
   void advertise();
+  // Sends a link the whole table (its first advert).
+  void advertiseAll(Link& link);
   std::shared_ptr<Link> linkTo(PeisId peer) const;
   Link* findLink(PeisId peer) const;  // linkTo without the reference count
   bool forward(PeisId destination, std::string frame);
@@ -213,6 +222,9 @@ class Network::Impl {
   std::map<PeisId, Route> routes_;
   // What each linked PEIS told us it can reach (applied as deltas).
   std::map<PeisId, std::map<PeisId, wire::RouteEntry>> adverts_;
+  std::set<PeisId> dirty_;           // ids whose route recompute() must re-evaluate
+  std::set<PeisId> advertDirty_;     // ids whose route changed since the last advert
+  std::uint64_t collisionSeen_ = 0;  // a neighbour advertised our id with another incarnation
   std::map<PeisId, BeaconPeer> beaconPeers_;
   std::set<PeisId> dialing_;
 };
@@ -297,6 +309,7 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   SteadyClock::time_point lastSent_;
   SteadyClock::time_point establishedAt_;
   std::map<PeisId, wire::RouteEntry> told_;  // the routes this peer last heard from us
+  bool toldAll_ = false;                     // it got our whole table once
   int malformed_ = 0;
   bool closed_ = false;
   PeisId dialTarget_ = 0;  // the beacon peer this link was dialled for
@@ -522,7 +535,14 @@ void Network::Impl::onClosed(const std::shared_ptr<Link>& link, const std::strin
     dialing_.erase(link->peer_.id);
     log::info(self_, "link to PEIS " + std::to_string(link->peer_.id) + " (" + link->remote_ +
                          ") closed: " + reason);
-    if (!linkTo(link->peer_.id)) adverts_.erase(link->peer_.id);
+    const PeisId peer = link->peer_.id;
+    if (!linkTo(peer)) {
+      adverts_.erase(peer);
+      dirty_.insert(peer);
+      for (const auto& [id, route] : routes_) {
+        if (route.nextHop == peer && route.hops > 0) dirty_.insert(id);
+      }
+    }
     recompute();
   } else {
     log::debug(self_, "link " + link->remote_ + " closed before the handshake: " + reason);
@@ -559,15 +579,28 @@ void Network::Impl::onFrame(const std::shared_ptr<Link>& link, std::string_view 
     wire::encode(wire::LinkMessage{wire::Pong{ping->nonce}}, out);
     link->sendFrame(out);
   } else if (auto* routes = std::get_if<wire::Routes>(&message)) {
-    auto& known = adverts_[link->peer_.id];
+    const PeisId from = link->peer_.id;
+    auto& known = adverts_[from];
     for (auto& entry : routes->entries) {
-      if (entry.hops == kWithdrawn) {
-        known.erase(entry.id);
-      } else {
-        known[entry.id] = std::move(entry);
+      if (entry.id == self_) {
+        // Its own entry (0 hops) naming our id: another PEIS holds it.
+        if (entry.hops == 0 && entry.incarnation != incarnation_) {
+          collisionSeen_ = entry.incarnation;
+        }
+        continue;
       }
+      const auto id = entry.id;
+      const auto hops = entry.hops;
+      if (hops == kWithdrawn) {
+        if (known.erase(id) == 0) continue;
+      } else {
+        known[id] = std::move(entry);
+      }
+      advertChanged(from, id, hops);
     }
-    scheduleRecompute();  // adverts arrive in bursts: recompute once per burst
+    if (collisionSeen_ != 0 || !dirty_.empty()) {
+      scheduleRecompute();  // adverts arrive in bursts: recompute once per burst
+    }
   } else if (auto* taken = std::get_if<wire::IdTaken>(&message)) {
     if (taken->id == self_ && taken->incarnation == incarnation_) collision(0);
   }
@@ -618,8 +651,11 @@ void Network::Impl::onHello(const std::shared_ptr<Link>& link, const wire::Hello
   dialing_.erase(hello.id);
   log::info(self_, "linked to PEIS " + std::to_string(hello.id) + " '" + hello.name + "' at " +
                        link->remote_ + (link->outbound_ ? " (dialled)" : " (accepted)"));
+  dirty_.insert(hello.id);
   recompute();
-  advertise();
+  // The new link gets the whole table now; the others hear of the new route
+  // with the next advert.
+  if (!link->closed_) advertiseAll(*link);
 }
 
 void Network::Impl::collision(std::uint64_t otherIncarnation) {
@@ -630,6 +666,9 @@ void Network::Impl::collision(std::uint64_t otherIncarnation) {
                      std::to_string(self_));
   routes_.clear();
   adverts_.clear();
+  dirty_.clear();
+  advertDirty_.clear();
+  collisionSeen_ = 0;
   auto links = links_;
   for (auto& l : links) l->close("re-picked my id");
   routes_[self_] = Route{0, self_, incarnation_, config_.name};
@@ -769,59 +808,101 @@ bool Network::Impl::sendUpdate(PeisId destination, std::uint64_t incarnation, co
   return true;
 }
 
+void Network::Impl::advertChanged(PeisId from, PeisId id, std::uint8_t hops) {
+  const auto route = routes_.find(id);
+  if (route == routes_.end() || route->second.nextHop == from ||
+      (hops != kWithdrawn && hops + 1 < route->second.hops)) {
+    dirty_.insert(id);
+  }
+}
+
+// Distance vector: the shortest route over the links and their adverts wins;
+// on a tie the current next hop is kept, else the first link offering it.
+// Only the dirty ids are evaluated: every other route is unchanged, since
+// none of its candidates changed in a way that could move it.
 void Network::Impl::recompute() {
-  std::map<PeisId, Route> next;
-  next[self_] = Route{0, self_, incarnation_, config_.name};
-  // Builds a Route (and copies its name) only when it wins.
-  auto offer = [&](PeisId id, int hops, PeisId nextHop, std::uint64_t incarnation,
-                   const std::string& name) {
-    auto it = next.lower_bound(id);
-    if (it == next.end() || it->first != id) {
-      next.emplace_hint(it, id, Route{hops, nextHop, incarnation, name});
-      return;
-    }
-    auto& current = it->second;
-    if (hops > current.hops) return;
-    const auto old = routes_.find(id);
-    const bool keepsOld = old != routes_.end() && old->second.nextHop == nextHop;
-    if (hops < current.hops || keepsOld) current = Route{hops, nextHop, incarnation, name};
+  if (collisionSeen_ != 0) {
+    const auto other = collisionSeen_;
+    collisionSeen_ = 0;
+    ++counters_.idCollisions;
+    collision(other);
+    return;
+  }
+  if (dirty_.empty()) return retryHeld();
+  struct Neighbour {
+    const wire::Hello* peer;
+    const std::map<PeisId, wire::RouteEntry>* advert;
   };
+  std::vector<Neighbour> neighbours;
+  neighbours.reserve(links_.size());
   for (const auto& link : links_) {
     if (!link->established_) continue;
-    const auto& peer = link->peer_;
-    offer(peer.id, 1, peer.id, peer.incarnation, peer.name);
-    auto advert = adverts_.find(peer.id);
-    if (advert == adverts_.end()) continue;
-    for (const auto& [entryId, entry] : advert->second) {
-      if (entry.id == self_) {
-        if (entry.incarnation != incarnation_ && entry.hops == 0) {
-          ++counters_.idCollisions;
-          collision(entry.incarnation);
-          return;
-        }
-        continue;
-      }
-      if (entry.hops + 1 > kMaxHops) continue;
-      offer(entry.id, entry.hops + 1, peer.id, entry.incarnation, entry.name);
-    }
+    const auto advert = adverts_.find(link->peer_.id);
+    neighbours.push_back(
+        Neighbour{&link->peer_, advert == adverts_.end() ? nullptr : &advert->second});
   }
-  if (next == routes_) return retryHeld();
-  auto old = std::move(routes_);
-  routes_ = std::move(next);
-  scheduleAdvert();
-  if (events_.onTopology) events_.onTopology();
-  retryHeld();
-  for (const auto& [id, route] : old) {
-    if (!routes_.count(id) && events_.onPeerDown) events_.onPeerDown(id);
-  }
-  for (const auto& [id, route] : routes_) {
+  std::vector<PeisId> up, down;
+  bool changed = false;
+  const auto dirty = std::move(dirty_);
+  dirty_.clear();
+  for (const PeisId id : dirty) {
     if (id == self_) continue;
-    auto before = old.find(id);
-    if ((before == old.end() || before->second.incarnation != route.incarnation) &&
-        events_.onPeerUp) {
-      events_.onPeerUp(PeerInfo{id, route.name, route.incarnation, route.hops, route.nextHop});
+    const auto old = routes_.find(id);
+    const PeisId oldNextHop = old == routes_.end() ? 0 : old->second.nextHop;
+    int bestHops = kMaxHops + 1;
+    PeisId bestNextHop = 0;
+    std::uint64_t bestIncarnation = 0;
+    const std::string* bestName = nullptr;
+    auto offer = [&](int hops, PeisId nextHop, std::uint64_t incarnation, const std::string& name) {
+      if (hops > bestHops) return;
+      if (hops < bestHops || nextHop == oldNextHop) {
+        bestHops = hops;
+        bestNextHop = nextHop;
+        bestIncarnation = incarnation;
+        bestName = &name;
+      }
+    };
+    for (const auto& n : neighbours) {
+      if (n.peer->id == id) offer(1, id, n.peer->incarnation, n.peer->name);
+      if (!n.advert) continue;
+      const auto entry = n.advert->find(id);
+      if (entry == n.advert->end() || entry->second.hops + 1 > kMaxHops) continue;
+      offer(entry->second.hops + 1, n.peer->id, entry->second.incarnation, entry->second.name);
     }
+    if (!bestName) {
+      if (old == routes_.end()) continue;
+      routes_.erase(old);
+      advertDirty_.insert(id);
+      down.push_back(id);
+      changed = true;
+      continue;
+    }
+    Route best{bestHops, bestNextHop, bestIncarnation, *bestName};
+    if (old == routes_.end()) {
+      routes_.emplace(id, std::move(best));
+      up.push_back(id);
+    } else if (old->second != best) {
+      if (old->second.incarnation != best.incarnation) up.push_back(id);
+      old->second = std::move(best);
+    } else {
+      continue;
+    }
+    advertDirty_.insert(id);
+    changed = true;
   }
+  if (!changed) return retryHeld();
+  scheduleAdvert();
+  retryHeld();
+  for (const PeisId id : down) {
+    if (events_.onPeerDown) events_.onPeerDown(id);
+  }
+  for (const PeisId id : up) {
+    const auto route = routes_.find(id);
+    if (route == routes_.end() || !events_.onPeerUp) continue;
+    const auto& r = route->second;
+    events_.onPeerUp(PeerInfo{id, r.name, r.incarnation, r.hops, r.nextHop});
+  }
+  if (events_.onTopology) events_.onTopology();
 }
 
 // Runs `work` once, `delay` after the first of any number of requests.
@@ -845,53 +926,70 @@ void Network::Impl::scheduleAdvert() {
 }
 
 // Tells each linked PEIS what changed in the routes it should know (split
-// horizon: never a route back through itself). A new link gets everything.
-// One merge pass over two id-ordered maps per link: no allocation unless
-// something changed.
+// horizon: never a route back through itself): only the ids whose route
+// changed since the last advert are looked at.
 void Network::Impl::advertise() {
+  if (advertDirty_.empty()) return;
+  const auto changed = std::move(advertDirty_);
+  advertDirty_.clear();
   for (const auto& link : links_) {
     if (!link->established_) continue;
+    if (!link->toldAll_) {
+      advertiseAll(*link);
+      continue;
+    }
     const PeisId peer = link->peer_.id;
     auto& told = link->told_;
     wire::Routes delta;
-    auto r = routes_.begin();
-    auto t = told.begin();
-    while (r != routes_.end() || t != told.end()) {
-      const bool routeFirst = t == told.end() || (r != routes_.end() && r->first < t->first);
-      const bool toldFirst = r == routes_.end() || (t != told.end() && t->first < r->first);
-      if (routeFirst) {
-        const auto& [id, route] = *r++;
-        if (route.hops > 0 && route.nextHop == peer) continue;  // split horizon
-        wire::RouteEntry entry{id, static_cast<std::uint8_t>(route.hops), route.incarnation,
-                               route.name};
-        told.emplace_hint(t, id, entry);
-        delta.entries.push_back(std::move(entry));
-      } else if (toldFirst) {
-        delta.entries.push_back(wire::RouteEntry{t->first, kWithdrawn, 0, ""});
-        t = told.erase(t);
-      } else {
-        const auto& route = r->second;
-        if (route.hops > 0 && route.nextHop == peer) {
-          delta.entries.push_back(wire::RouteEntry{t->first, kWithdrawn, 0, ""});
-          t = told.erase(t);
-        } else {
-          auto& entry = t->second;
-          if (entry.hops != route.hops || entry.incarnation != route.incarnation ||
-              entry.name != route.name) {
-            entry = wire::RouteEntry{r->first, static_cast<std::uint8_t>(route.hops),
-                                     route.incarnation, route.name};
-            delta.entries.push_back(entry);
-          }
-          ++t;
-        }
-        ++r;
+    for (const PeisId id : changed) {
+      const auto r = routes_.find(id);
+      const bool tell = r != routes_.end() && !(r->second.hops > 0 && r->second.nextHop == peer);
+      const auto t = told.find(id);
+      if (!tell) {
+        if (t == told.end()) continue;
+        delta.entries.push_back(wire::RouteEntry{id, kWithdrawn, 0, ""});
+        told.erase(t);
+        continue;
       }
+      const auto& route = r->second;
+      if (t != told.end() && t->second.hops == route.hops &&
+          t->second.incarnation == route.incarnation && t->second.name == route.name) {
+        continue;
+      }
+      wire::RouteEntry entry{id, static_cast<std::uint8_t>(route.hops), route.incarnation,
+                             route.name};
+      if (t == told.end()) {
+        told.emplace(id, entry);
+      } else {
+        t->second = entry;
+      }
+      delta.entries.push_back(std::move(entry));
     }
     if (delta.entries.empty()) continue;
     std::string out;
     wire::encode(wire::LinkMessage{delta}, out);
     link->sendFrame(out);
   }
+}
+
+// A new link's first advert: the whole table, less the routes through it.
+void Network::Impl::advertiseAll(Link& link) {
+  const PeisId peer = link.peer_.id;
+  auto& told = link.told_;
+  told.clear();
+  link.toldAll_ = true;
+  wire::Routes all;
+  for (const auto& [id, route] : routes_) {
+    if (route.hops > 0 && route.nextHop == peer) continue;  // split horizon
+    wire::RouteEntry entry{id, static_cast<std::uint8_t>(route.hops), route.incarnation,
+                           route.name};
+    told.emplace_hint(told.end(), id, entry);
+    all.entries.push_back(std::move(entry));
+  }
+  if (all.entries.empty()) return;
+  std::string out;
+  wire::encode(wire::LinkMessage{all}, out);
+  link.sendFrame(out);
 }
 
 void Network::Impl::pingLoop() {
