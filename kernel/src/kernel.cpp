@@ -121,6 +121,9 @@ struct Kernel::Impl {
   std::uint64_t nextRequest = 1;
   WriteGate writeGate;  // guarded by mu
   asio::steady_timer leaseTimer{io};
+  asio::steady_timer retryTimer{io};  // Replication::retryUnanswered
+  bool retryArmed = false;            // guarded by mu
+  bool networkStopped = false;        // guarded by mu
 
   std::mutex timersMu;
   struct Timer {
@@ -183,6 +186,30 @@ struct Kernel::Impl {
       asio::post(io, [this] { drain(); });
     }
     if (waiters > 0) changed.notify_all();
+    if (!retryArmed && replication.hasUnanswered()) {
+      retryArmed = true;
+      asio::post(io, [this] { armRetry(); });
+    }
+  }
+
+  void armRetry() {  // kernel thread
+    std::optional<std::chrono::steady_clock::time_point> at;
+    {
+      std::lock_guard lock(mu);
+      at = replication.nextRetry();
+      if (!at || networkStopped) {
+        retryArmed = false;
+        return;
+      }
+    }
+    retryTimer.expires_at(*at);
+    retryTimer.async_wait([this](const boost::system::error_code& ec) {
+      std::lock_guard lock(mu);
+      retryArmed = false;
+      if (ec) return;
+      replication.retryUnanswered(std::chrono::steady_clock::now());
+      afterMutation();  // sends them, and arms the timer again if more are due
+    });
   }
 
   std::vector<TupleSpace::Delivery> batch;  // kernel thread: drain's, reused
@@ -595,6 +622,11 @@ struct Kernel::Impl {
 
   void stopNetwork() {  // kernel thread
     leaseTimer.cancel();
+    {
+      std::lock_guard lock(mu);
+      networkStopped = true;
+    }
+    retryTimer.cancel();
     auto requests = pendingWrites;
     for (const auto& [request, pending] : requests) {
       completeWrite(request, Error(ErrorCode::Stopped, "the kernel is shutting down"), 0);

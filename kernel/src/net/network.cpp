@@ -36,11 +36,11 @@ constexpr int kMaxHops = 32;
 constexpr std::uint8_t kWithdrawn = 255;  // a route entry that is no longer valid
 constexpr std::size_t kReadChunk = 32 * 1024;
 constexpr std::size_t kWriteChunk = 256 * 1024;
-constexpr std::chrono::milliseconds kAdvertDelay{100};
+constexpr std::chrono::milliseconds kAdvertDelay{100};  // adverts at most every 100 ms
 constexpr std::chrono::milliseconds kRedialPeriod{1000};
 constexpr std::chrono::seconds kLinkGrace{2};  // a link's minimum life before pruning
 constexpr std::chrono::milliseconds kDialQuiet{15};
-constexpr std::chrono::milliseconds kRecomputeDelay{100};
+constexpr std::chrono::milliseconds kRecomputeDelay{20};  // recomputes at most every 20 ms
 constexpr std::chrono::seconds kHoldFor{3};  // how long a frame waits for its source's route
 constexpr std::size_t kMaxHeldFrames = 1024;
 constexpr std::chrono::milliseconds kDialMaxDelay{1000};
@@ -106,7 +106,6 @@ class Network::Impl {
         udp_(io),
         beaconTimer_(io),
         pingTimer_(io),
-        advertTimer_(io),
         redialTimer_(io),
         dialTimer_(io),
         acceptRetry_(io),
@@ -179,15 +178,24 @@ class Network::Impl {
   void advertChanged(PeisId from, PeisId id, std::uint8_t hops);
   void scheduleAdvert();
   void scheduleRecompute();
-  void debounce(asio::steady_timer& timer, bool& scheduled, std::chrono::milliseconds delay,
-                void (Impl::*work)());
+  struct Throttle {
+    explicit Throttle(asio::io_context& io) : timer(io) {}
+    asio::steady_timer timer;
+    bool scheduled = false;
+    SteadyClock::time_point last;
+  };
+  void throttle(Throttle& t, std::chrono::milliseconds interval, void (Impl::*work)());
   // Sends each linked PEIS what changed in its view of the routes.
   void advertise();
   // Sends a link the whole table (its first advert).
   void advertiseAll(Link& link);
   std::shared_ptr<Link> linkTo(PeisId peer) const;
   Link* findLink(PeisId peer) const;  // linkTo without the reference count
-  bool forward(PeisId destination, std::string frame);
+  // `relayedFrom`: the source of a frame this PEIS relays (0: its own).
+  bool forward(PeisId destination, std::string frame, PeisId relayedFrom = 0);
+  // Tells `link` our route to `id` now, unless it knows it or the route goes
+  // through it.
+  void tellRoute(Link& link, PeisId id);
   void beaconLoop();
   void sendBeacon(const udp::endpoint& to, bool wantsAnswer);
   void receiveBeacons();
@@ -197,6 +205,12 @@ class Network::Impl {
   // PEIS starting together do not link to every target they pass through.
   void scheduleDials();
   void pruneLinks();
+  // Runs pruneLinks once the membership and the links have been settled for
+  // kLinkGrace (not only at the next beacon, which may be 8 s away).
+  void schedulePrune();
+  void armPrune(SteadyClock::time_point at);
+  asio::steady_timer pruneTimer_{io_};
+  bool pruneArmed_ = false;
   void armBeacon(SteadyClock::time_point at);
   void membershipChanged(SteadyClock::time_point now);
   std::vector<PeisId> overlayIds() const;
@@ -208,15 +222,13 @@ class Network::Impl {
   udp::socket udp_;
   udp::endpoint beaconFrom_;
   std::array<char, 512> beaconBuffer_{};
-  asio::steady_timer beaconTimer_, pingTimer_, advertTimer_, redialTimer_, dialTimer_, acceptRetry_;
+  asio::steady_timer beaconTimer_, pingTimer_, redialTimer_, dialTimer_, acceptRetry_;
   bool dialsPending_ = false;
-  bool recomputeScheduled_ = false;
-  asio::steady_timer recomputeTimer_{io_};
+  Throttle recomputeThrottle_{io_}, advertThrottle_{io_};
   SteadyClock::time_point membershipChanged_;
   std::chrono::milliseconds beaconInterval_{0};  // the current beacon period
   SteadyClock::time_point beaconDue_;
   SteadyClock::time_point dialsFirstAsked_;
-  bool advertScheduled_ = false;
   std::vector<std::shared_ptr<Link>> links_;
   std::vector<std::weak_ptr<Link>> explicitLinks_;
   std::map<PeisId, Route> routes_;
@@ -453,6 +465,11 @@ void Network::Impl::start() {
       udp_.close(ec);
     } else {
       receiveBeacons();
+      // The configured period until the membership has been stable for a
+      // period (from 0, the back-off below would stay at 0: a PEIS alone
+      // would beacon without pause).
+      beaconInterval_ = config_.beaconPeriod;
+      membershipChanged_ = SteadyClock::now();
       beaconLoop();
     }
   }
@@ -472,10 +489,11 @@ void Network::Impl::stop() {
   udp_.close(ec);
   beaconTimer_.cancel();
   pingTimer_.cancel();
-  advertTimer_.cancel();
+  advertThrottle_.timer.cancel();
   redialTimer_.cancel();
   dialTimer_.cancel();
-  recomputeTimer_.cancel();
+  recomputeThrottle_.timer.cancel();
+  pruneTimer_.cancel();
   acceptRetry_.cancel();
   auto links = links_;
   for (auto& link : links) link->close("shutting down");
@@ -647,6 +665,7 @@ void Network::Impl::onHello(const std::shared_ptr<Link>& link, const wire::Hello
   }
   link->established_ = true;
   link->establishedAt_ = SteadyClock::now();
+  if (link->explicitIndex_ < 0) schedulePrune();
   link->peer_ = hello;
   dialing_.erase(hello.id);
   log::info(self_, "linked to PEIS " + std::to_string(hello.id) + " '" + hello.name + "' at " +
@@ -685,7 +704,7 @@ void Network::Impl::onRouted(const std::shared_ptr<Link>& link, std::string_view
     return;
   }
   // Its route may sit in an advert whose recompute is still pending.
-  if (!routes_.count(envelope.source) && recomputeScheduled_) recompute();
+  if (!routes_.count(envelope.source) && recomputeThrottle_.scheduled) recompute();
   // A linked PEIS sends its own frames over its own link, so a frame claiming
   // its id from another link is spoofed, unless that link's PEIS advertised
   // a route to it: then it relays frames sent while routes were changing
@@ -734,7 +753,7 @@ void Network::Impl::deliverOrForward(std::string_view frame, wire::RoutedMessage
   auto routedEnvelope = envelope;
   --routedEnvelope.ttl;
   wire::reEnvelope(copy, routedEnvelope);
-  forward(envelope.destination, std::move(copy));
+  forward(envelope.destination, std::move(copy), envelope.source);
 }
 
 // Frames held for an unknown source: process those whose source is now
@@ -772,7 +791,7 @@ Network::Impl::Link* Network::Impl::findLink(PeisId peer) const {
   return nullptr;
 }
 
-bool Network::Impl::forward(PeisId destination, std::string frame) {
+bool Network::Impl::forward(PeisId destination, std::string frame, PeisId relayedFrom) {
   auto route = routes_.find(destination);
   if (route == routes_.end() || route->second.hops == 0) {
     ++counters_.unroutable;
@@ -783,8 +802,28 @@ bool Network::Impl::forward(PeisId destination, std::string frame) {
     ++counters_.unroutable;
     return false;
   }
+  // The next hop takes a frame claiming a linked PEIS's id from another link
+  // for spoofed unless that link advertised a route to it: the advert must
+  // not lag behind the frames relayed from that PEIS (adverts are batched).
+  if (relayedFrom != 0 && link->toldAll_ && !link->told_.count(relayedFrom)) {
+    tellRoute(*link, relayedFrom);
+  }
   link->sendFrame(frame);
   return true;
+}
+
+void Network::Impl::tellRoute(Link& link, PeisId id) {
+  const auto route = routes_.find(id);
+  if (route == routes_.end()) return;
+  const auto& r = route->second;
+  if (r.hops > 0 && r.nextHop == link.peer_.id) return;  // split horizon
+  wire::RouteEntry entry{id, static_cast<std::uint8_t>(r.hops), r.incarnation, r.name};
+  link.told_.emplace(id, entry);
+  wire::Routes one;
+  one.entries.push_back(std::move(entry));
+  std::string out;
+  wire::encode(wire::LinkMessage{one}, out);
+  link.sendFrame(out);
 }
 
 bool Network::Impl::send(wire::RoutedMessage message) {
@@ -905,25 +944,28 @@ void Network::Impl::recompute() {
   if (events_.onTopology) events_.onTopology();
 }
 
-// Runs `work` once, `delay` after the first of any number of requests.
-void Network::Impl::debounce(asio::steady_timer& timer, bool& scheduled,
-                             std::chrono::milliseconds delay, void (Impl::*work)()) {
-  if (scheduled || stopped_) return;
-  scheduled = true;
-  timer.expires_after(delay);
-  timer.async_wait([this, &scheduled, work](const boost::system::error_code& ec) {
-    scheduled = false;
-    if (!ec && !stopped_) (this->*work)();
+// Runs `work` once for any number of requests: right after the handlers
+// already queued (what one socket read brought) if it last ran at least
+// `interval` ago, else `interval` after that last run. A lone change goes
+// out at once; a stream of changes costs one run per interval.
+void Network::Impl::throttle(Throttle& t, std::chrono::milliseconds interval,
+                             void (Impl::*work)()) {
+  if (t.scheduled || stopped_) return;
+  t.scheduled = true;
+  t.timer.expires_at(std::max(SteadyClock::now(), t.last + interval));
+  t.timer.async_wait([this, &t, work](const boost::system::error_code& ec) {
+    t.scheduled = false;
+    if (ec || stopped_) return;
+    t.last = SteadyClock::now();
+    (this->*work)();
   });
 }
 
 void Network::Impl::scheduleRecompute() {
-  debounce(recomputeTimer_, recomputeScheduled_, kRecomputeDelay, &Impl::recompute);
+  throttle(recomputeThrottle_, kRecomputeDelay, &Impl::recompute);
 }
 
-void Network::Impl::scheduleAdvert() {
-  debounce(advertTimer_, advertScheduled_, kAdvertDelay, &Impl::advertise);
-}
+void Network::Impl::scheduleAdvert() { throttle(advertThrottle_, kAdvertDelay, &Impl::advertise); }
 
 // Tells each linked PEIS what changed in the routes it should know (split
 // horizon: never a route back through itself): only the ids whose route
@@ -1076,6 +1118,7 @@ void Network::Impl::armBeacon(SteadyClock::time_point at) {
 // The membership changed: beacon at the configured period again.
 void Network::Impl::membershipChanged(SteadyClock::time_point now) {
   membershipChanged_ = now;
+  schedulePrune();
   if (beaconInterval_ == config_.beaconPeriod) return;
   beaconInterval_ = config_.beaconPeriod;
   if (udp_.is_open() && beaconDue_ > now + beaconInterval_) armBeacon(now + beaconInterval_);
@@ -1119,7 +1162,14 @@ void Network::Impl::onBeacon(const Beacon& beacon, const udp::endpoint& from) {
   if (isNew) membershipChanged(SteadyClock::now());
   it->second = BeaconPeer{from.address(), beacon.port, beacon.incarnation, SteadyClock::now()};
   if (isNew) {
-    if (beacon.wantsAnswer) sendBeacon(from, false);
+    // Only a PEIS the newcomer should link with answers at once (its
+    // fingers, and those whose finger it is): the newcomer learns its
+    // overlay neighbours now, the others from their next beacon, which the
+    // change brings within a beacon period. N answers to each of N joining
+    // PEIS were most of the beacon traffic of a join storm.
+    if (beacon.wantsAnswer && overlayWantsSorted(overlayIds(), self_, beacon.id)) {
+      sendBeacon(from, false);
+    }
     scheduleDials();
   }
 }
@@ -1151,9 +1201,8 @@ void Network::Impl::scheduleDials() {
 
 void Network::Impl::evaluateDials() {
   const auto ids = overlayIds();
-  for (const PeisId target : ids) {
-    if (target <= self_ || !overlayWants(ids, self_, target)) continue;
-    if (linkTo(target) || dialing_.count(target)) continue;
+  for (const PeisId target : overlayPeers(ids, self_)) {
+    if (target <= self_ || linkTo(target) || dialing_.count(target)) continue;
     const auto& peer = beaconPeers_[target];
     log::debug(self_, "dialling PEIS " + std::to_string(target) + " (overlay of " +
                           std::to_string(ids.size()) + ")");
@@ -1171,6 +1220,29 @@ void Network::Impl::evaluateDials() {
   }
 }
 
+void Network::Impl::schedulePrune() {
+  if (stopped_ || pruneArmed_) return;  // when it fires, it waits longer if needed
+  armPrune(SteadyClock::now() + kLinkGrace);
+}
+
+void Network::Impl::armPrune(SteadyClock::time_point at) {
+  pruneArmed_ = true;
+  pruneTimer_.expires_at(at);
+  pruneTimer_.async_wait([this](const boost::system::error_code& ec) {
+    pruneArmed_ = false;
+    if (ec || stopped_) return;
+    // Settled: no membership change and no new discovered link for kLinkGrace.
+    auto settled = membershipChanged_;
+    for (const auto& link : links_) {
+      if (link->established_ && link->explicitIndex_ < 0) {
+        settled = std::max(settled, link->establishedAt_);
+      }
+    }
+    if (SteadyClock::now() < settled + kLinkGrace) return armPrune(settled + kLinkGrace);
+    pruneLinks();
+  });
+}
+
 // While PEIS join, the overlay's wanted pairs shift and links pile up; the
 // lower id of a pair closes a discovered link the overlay no longer wants
 // once it has settled for a while.
@@ -1184,7 +1256,7 @@ void Network::Impl::pruneLinks() {
     if (!link->established_ || link->explicitIndex_ >= 0) continue;
     const PeisId peer = link->peer_.id;
     if (self_ > peer || !beaconPeers_.count(peer)) continue;
-    if (now - link->establishedAt_ < kLinkGrace || overlayWants(ids, self_, peer)) continue;
+    if (now - link->establishedAt_ < kLinkGrace || overlayWantsSorted(ids, self_, peer)) continue;
     // Never cut a PEIS off: another neighbour must offer a route to it.
     bool alternative = false;
     for (const auto& [neighbour, advert] : adverts_) {
