@@ -2,10 +2,12 @@
 // baseline in the same run. Every peer is a separate process (this program
 // re-run with --role). Prints Markdown tables; see docs/performance.md.
 #include <arpa/inet.h>
+#include <fcntl.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
 #include <peis/peis.h>
 #include <signal.h>
+#include <spawn.h>
 #include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
@@ -48,26 +50,31 @@ std::map<std::string, std::string> parseFlags(int argc, char** argv) {
 }
 
 // A child process running this program in another role, stdout on a pipe.
+// posix_spawn (a vfork: no copy of the parent's page tables) of
+// /proc/self/exe; the pipes are close-on-exec, so a child inherits only its
+// own stdout, not the pipes of the children started before it. The child
+// arranges to die with the parent itself (main, --role).
 class Child {
  public:
   explicit Child(std::vector<std::string> args) {
     int fds[2];
-    if (pipe(fds) != 0) throw std::runtime_error("pipe failed");
-    pid_ = fork();
-    if (pid_ == 0) {
-      prctl(PR_SET_PDEATHSIG, SIGKILL);  // never outlive the parent
-      dup2(fds[1], 1);
-      close(fds[0]);
-      close(fds[1]);
-      std::vector<char*> argv;
-      static std::string self = "/proc/self/exe";
-      argv.push_back(self.data());
-      for (auto& a : args) argv.push_back(a.data());
-      argv.push_back(nullptr);
-      execv("/proc/self/exe", argv.data());
-      _exit(127);
-    }
+    if (pipe2(fds, O_CLOEXEC) != 0) throw std::runtime_error("pipe failed");
+    std::vector<char*> argv;
+    static std::string self = "/proc/self/exe";
+    argv.push_back(self.data());
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_adddup2(&actions, fds[1], 1);  // dup2 clears close-on-exec
+    const int error = posix_spawn(&pid_, "/proc/self/exe", &actions, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&actions);
     close(fds[1]);
+    if (error != 0) {
+      close(fds[0]);
+      pid_ = -1;
+      throw std::runtime_error("posix_spawn failed");
+    }
     out_ = fdopen(fds[0], "r");
   }
   Child(const Child&) = delete;
@@ -414,19 +421,33 @@ ScaleResult scale(int n, const std::string& ecology) {
     nodes.push_back(std::make_unique<Child>(std::vector<std::string>{
         "--role", "node", "--ecology", ecology, "--id", std::to_string(1000 + i)}));
   }
-  peis::Kernel kernel(hostOptions(ecology, 1, true));
-  kernel.subscribe(peis::Pattern("v"));
   // PEIS_BENCH_PROGRESS=1: how many values (and peers) were seen when, to stderr.
   const bool progress = std::getenv("PEIS_BENCH_PROGRESS") != nullptr;
+  if (progress) {
+    std::fprintf(stderr, "scale %d: %.2f s: %d processes started\n", n,
+                 std::chrono::duration<double>(Clock::now() - start).count(), n);
+  }
+  peis::Kernel kernel(hostOptions(ecology, 1, true));
+  kernel.subscribe(peis::Pattern("v"));
+  if (progress) {
+    std::fprintf(stderr, "scale %d: %.2f s: the subscriber started\n", n,
+                 std::chrono::duration<double>(Clock::now() - start).count());
+  }
   auto lastReport = Clock::now();
   const bool all = waitFor(
       [&] {
         const auto seen = kernel.find(peis::Pattern("v")).size();
         if (progress && Clock::now() - lastReport >= 250ms) {
           lastReport = Clock::now();
-          std::fprintf(stderr, "scale %d: %.2f s: %zu values, %zu peers\n", n,
-                       std::chrono::duration<double>(lastReport - start).count(), seen,
-                       kernel.peers().size());
+          long ticks = 0;
+          for (auto& node : nodes) ticks += procTicks(node->pid());
+          const double hz = static_cast<double>(sysconf(_SC_CLK_TCK));
+          std::fprintf(stderr,
+                       "scale %d: %.2f s: %zu values, %zu peers, CPU of the nodes %.2f s, of the "
+                       "subscriber %.2f s\n",
+                       n, std::chrono::duration<double>(lastReport - start).count(), seen,
+                       kernel.peers().size(), static_cast<double>(ticks) / hz,
+                       static_cast<double>(procTicks(getpid())) / hz);
         }
         return seen >= static_cast<std::size_t>(n);
       },
@@ -454,7 +475,8 @@ ScaleResult scale(int n, const std::string& ecology) {
   return result;
 }
 
-// `sizes` ("16,1024"; empty: all) limits the throughput runs, for profiling.
+// `sizes` ("16,1024"; empty: all) limits the throughput runs (and for scale, the N), for
+// profiling.
 int runAll(const std::string& what, const std::string& sizes) {
   const std::string ecology = "bench-" + std::to_string(getpid());
   auto wanted = [&](const char* name) { return what == "all" || what == name; };
@@ -509,6 +531,10 @@ int runAll(const std::string& what, const std::string& sizes) {
         "| scale | N | all N values seen (s) | idle CPU per PEIS (%%) | RSS per PEIS (KiB) "
         "| PSS (KiB) | private (KiB) |\n|---|---|---|---|---|---|---|\n");
     for (int n : {10, 50, 200}) {
+      if (!sizes.empty() &&
+          ("," + sizes + ",").find("," + std::to_string(n) + ",") == std::string::npos) {
+        continue;
+      }
       const auto r = scale(n, ecology + "-scale" + std::to_string(n));
       std::printf("| processes on one host | %d | %.2f | %.3f | %.0f | %.0f | %.0f |\n", n,
                   r.secondsToAll, r.idleCpuPercent, r.rssKib, r.pssKib, r.privateKib);
@@ -525,11 +551,14 @@ int main(int argc, char** argv) {
   if (argc > 1 && (std::strcmp(argv[1], "--help") == 0 || std::strcmp(argv[1], "-h") == 0)) {
     std::printf(
         "Usage: peis-bench-net [all|rtt|throughput|join|scale] [SIZES]\n"
-        "SIZES (e.g. 16,1024) limits the one-writer throughput runs to those sizes.\n"
+        "SIZES (e.g. 16,1024) limits the one-writer throughput runs to those sizes,\n"
+        "and for scale (e.g. 200) the numbers of processes.\n"
         "Measures the ecology over loopback beside raw TCP; prints Markdown tables.\n");
     return 0;
   }
   if (argc > 2 && std::strcmp(argv[1], "--role") == 0) {
+    prctl(PR_SET_PDEATHSIG, SIGKILL);  // never outlive the benchmark
+    if (getppid() == 1) return 1;      // it is gone already
     const std::string role = argv[2];
     const auto flags = parseFlags(argc - 2, argv + 2);
     if (role == "tcp-echo") return roleTcpEcho();

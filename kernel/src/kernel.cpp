@@ -127,6 +127,9 @@ struct Kernel::Impl {
   std::uint64_t nextRequest = 1;
   WriteGate writeGate;  // guarded by mu
   asio::steady_timer leaseTimer{io};
+  asio::steady_timer retryTimer{io};  // Replication::retryUnanswered
+  bool retryArmed = false;            // guarded by mu
+  bool networkStopped = false;        // guarded by mu
 
   std::mutex timersMu;
   struct Timer {
@@ -189,6 +192,30 @@ struct Kernel::Impl {
       asio::post(io, [this] { drain(); });
     }
     if (waiters > 0) changed.notify_all();
+    if (!retryArmed && replication.hasUnanswered()) {
+      retryArmed = true;
+      asio::post(io, [this] { armRetry(); });
+    }
+  }
+
+  void armRetry() {  // kernel thread
+    std::optional<std::chrono::steady_clock::time_point> at;
+    {
+      std::lock_guard lock(mu);
+      at = replication.nextRetry();
+      if (!at || networkStopped) {
+        retryArmed = false;
+        return;
+      }
+    }
+    retryTimer.expires_at(*at);
+    retryTimer.async_wait([this](const boost::system::error_code& ec) {
+      std::lock_guard lock(mu);
+      retryArmed = false;
+      if (ec) return;
+      replication.retryUnanswered(std::chrono::steady_clock::now());
+      afterMutation();  // sends them, and arms the timer again if more are due
+    });
   }
 
   // Kernel thread: deliveries taken from the space, run in turns.
@@ -380,9 +407,7 @@ struct Kernel::Impl {
     log::debug(id, "PEIS " + std::to_string(peer.id) + " '" + peer.name + "' reachable in " +
                        std::to_string(peer.hops) + " hop(s)");
     replication.onPeerUp(peer.id, peer.incarnation);
-    snapshotPeers();
-    refreshMembershipTuples();
-    afterMutation();
+    afterMutation();  // the membership tuples follow with onTopology, once per change
   }
 
   // Asks the write gate about a remote set of an own tuple (outside the
@@ -417,9 +442,7 @@ struct Kernel::Impl {
       std::lock_guard lock(mu);
       log::debug(id, "PEIS " + std::to_string(peer) + " is gone");
       replication.onPeerDown(peer);
-      snapshotPeers();
-      refreshMembershipTuples();
-      refreshSubscribersTuple();
+      refreshSubscribersTuple();  // the membership tuples follow with onTopology
       afterMutation();
     }
     std::vector<std::uint64_t> failed;
@@ -625,6 +648,11 @@ struct Kernel::Impl {
 
   void stopNetwork() {  // kernel thread
     leaseTimer.cancel();
+    {
+      std::lock_guard lock(mu);
+      networkStopped = true;
+    }
+    retryTimer.cancel();
     auto requests = pendingWrites;
     for (const auto& [request, pending] : requests) {
       completeWrite(request, Error(ErrorCode::Stopped, "the kernel is shutting down"), 0);

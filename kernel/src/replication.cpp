@@ -135,6 +135,42 @@ void Replication::sendSubscribe(LocalSubscription& local, PeisId owner) {
   push(Outgoing{owner, nullptr,
                 wire::Subscribe{wireId, static_cast<std::uint32_t>(lease_.count()),
                                 local.pattern.ownerFilter(), local.pattern.keyPattern()}});
+  unanswered_.push_back(
+      Unanswered{owner, wireId, std::chrono::steady_clock::now() + kUnansweredAfter, 0});
+}
+
+void Replication::retryUnanswered(SteadyTime now) {
+  std::vector<Unanswered> keep;
+  for (auto& u : unanswered_) {
+    if (u.due > now) {
+      keep.push_back(u);
+      continue;
+    }
+    // Still this subscription's id for that owner (not unsubscribed, the
+    // owner not gone, no fresher id tracked on its own)?
+    const LocalSubscription* local = nullptr;
+    for (const auto& [handle, l] : local_) {
+      const auto id = l.wireIds.find(u.owner);
+      if (id != l.wireIds.end() && id->second == u.wireId) local = &l;
+    }
+    if (!local || !space_.find(Pattern(local->pattern.keyPattern(), u.owner)).empty()) continue;
+    push(Outgoing{u.owner, nullptr,
+                  wire::Subscribe{u.wireId, static_cast<std::uint32_t>(lease_.count()),
+                                  local->pattern.ownerFilter(), local->pattern.keyPattern()}});
+    if (++u.tries < kUnansweredRetries) {
+      u.due = now + kUnansweredAfter * (1 << u.tries);
+      keep.push_back(u);
+    }
+  }
+  unanswered_ = std::move(keep);
+}
+
+std::optional<Replication::SteadyTime> Replication::nextRetry() const {
+  std::optional<SteadyTime> first;
+  for (const auto& u : unanswered_) {
+    if (!first || u.due < *first) first = u.due;
+  }
+  return first;
 }
 
 SubscriptionHandle Replication::subscribe(const Pattern& pattern) {

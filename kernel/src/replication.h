@@ -69,6 +69,17 @@ class Replication {
   void renew();
   void onPeerUp(PeisId peer, std::uint64_t incarnation);
   void onPeerDown(PeisId peer);
+  // A fresh Subscribe that brought no value yet is sent again (same id, like
+  // a renewal) kUnansweredRetries times, kUnansweredAfter and then twice
+  // that later: one lost on a route that changed under it (the join of many
+  // PEIS) is then recovered long before the next lease renewal. An owner
+  // that holds no matching tuple costs these few Subscribes and no more.
+  void retryUnanswered(SteadyTime now);
+  // When retryUnanswered has work, if it has any.
+  std::optional<SteadyTime> nextRetry() const;
+  bool hasUnanswered() const { return !unanswered_.empty(); }
+  static constexpr std::chrono::milliseconds kUnansweredAfter{500};
+  static constexpr int kUnansweredRetries = 2;
   // Keeps a subscription to whatever an indirect callback points at.
   void onRetarget(CallbackId indirect, const std::optional<TupleRef>& to);
   void onIndirectRemoved(CallbackId indirect);
@@ -112,6 +123,13 @@ class Replication {
     std::map<PeisId, std::uint64_t> wireIds;  // per owner it was sent to
   };
   void sendSubscribe(LocalSubscription& local, PeisId owner);
+  struct Unanswered {
+    PeisId owner;
+    std::uint64_t wireId;
+    SteadyTime due;
+    int tries;
+  };
+  std::vector<Unanswered> unanswered_;
   bool covers(const LocalSubscription& local, PeisId owner) const;
   bool checkIncarnation(PeisId owner, std::uint64_t incarnation);
 

@@ -139,3 +139,32 @@ TEST_CASE("a joining PEIS changes few wanted links", "[unit][overlay]") {
     CHECK(lost * 20 <= before.size());
   }
 }
+
+TEST_CASE("the sorted overlay test and overlayPeers agree with the fingers", "[unit][overlay]") {
+  std::mt19937 random(11);
+  for (std::size_t n : {1u, 2u, 3u, 10u, 60u, 200u}) {
+    for (int round = 0; round < 3; ++round) {
+      std::vector<PeisId> ids;
+      if (round == 0) {
+        for (std::size_t i = 0; i < n; ++i) ids.push_back(static_cast<PeisId>(1000 + i));
+      } else if (round == 1) {
+        ids = randomIds(random, n);
+      } else {  // both ends of the ring
+        for (std::size_t i = 0; i < n; ++i) {
+          ids.push_back(static_cast<PeisId>(i % 2 ? 1 + i : peis::kMaxPeisId - i));
+        }
+        std::sort(ids.begin(), ids.end());
+      }
+      INFO("n = " << n << ", round " << round);
+      for (const PeisId a : ids) {
+        std::vector<PeisId> wanted;
+        for (const PeisId b : ids) {
+          const bool brute = a != b && overlayWants(ids, a, b);
+          CHECK(overlayWantsSorted(ids, a, b) == brute);
+          if (brute) wanted.push_back(b);
+        }
+        CHECK(overlayPeers(ids, a) == wanted);
+      }
+    }
+  }
+}

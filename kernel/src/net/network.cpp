@@ -41,11 +41,11 @@ constexpr std::size_t kWriteChunk = 256 * 1024;
 constexpr std::size_t kZeroCopyBytes = wire::kZeroCopyDataBytes;
 constexpr std::size_t kGatherChunks = 16;  // chunks per gathered write, at most
 constexpr std::size_t kGatherBytes = 1024 * 1024;
-constexpr std::chrono::milliseconds kAdvertDelay{100};
+constexpr std::chrono::milliseconds kAdvertDelay{100};  // adverts at most every 100 ms
 constexpr std::chrono::milliseconds kRedialPeriod{1000};
 constexpr std::chrono::seconds kLinkGrace{2};  // a link's minimum life before pruning
 constexpr std::chrono::milliseconds kDialQuiet{15};
-constexpr std::chrono::milliseconds kRecomputeDelay{100};
+constexpr std::chrono::milliseconds kRecomputeDelay{20};  // recomputes at most every 20 ms
 constexpr std::chrono::seconds kHoldFor{3};  // how long a frame waits for its source's route
 constexpr std::size_t kMaxHeldFrames = 1024;
 constexpr std::chrono::milliseconds kDialMaxDelay{1000};
@@ -111,7 +111,6 @@ class Network::Impl {
         udp_(io),
         beaconTimer_(io),
         pingTimer_(io),
-        advertTimer_(io),
         redialTimer_(io),
         dialTimer_(io),
         acceptRetry_(io),
@@ -180,15 +179,33 @@ class Network::Impl {
     if (spareInbox_.capacity() < messages.capacity()) spareInbox_.swap(messages);
   }
   void collision(std::uint64_t otherIncarnation);
+  // Re-evaluates the routes of the ids in dirty_ (the only ones whose
+  // candidates changed since the last time), fires the events.
   void recompute();
+  // An advert entry from `from` changed: its id needs re-evaluating only if
+  // the entry could change its route (no route yet, a better one, or one
+  // from the current next hop).
+  void advertChanged(PeisId from, PeisId id, std::uint8_t hops);
   void scheduleAdvert();
   void scheduleRecompute();
-  void debounce(asio::steady_timer& timer, bool& scheduled, std::chrono::milliseconds delay,
-                void (Impl::*work)());
+  struct Throttle {
+    explicit Throttle(asio::io_context& io) : timer(io) {}
+    asio::steady_timer timer;
+    bool scheduled = false;
+    SteadyClock::time_point last;
+  };
+  void throttle(Throttle& t, std::chrono::milliseconds interval, void (Impl::*work)());
+  // Sends each linked PEIS what changed in its view of the routes.
   void advertise();
+  // Sends a link the whole table (its first advert).
+  void advertiseAll(Link& link);
   std::shared_ptr<Link> linkTo(PeisId peer) const;
   Link* findLink(PeisId peer) const;  // linkTo without the reference count
-  bool forward(PeisId destination, std::string frame);
+  // `relayedFrom`: the source of a frame this PEIS relays (0: its own).
+  bool forward(PeisId destination, std::string frame, PeisId relayedFrom = 0);
+  // Tells `link` our route to `id` now, unless it knows it or the route goes
+  // through it.
+  void tellRoute(Link& link, PeisId id);
   void beaconLoop();
   void sendBeacon(const udp::endpoint& to, bool wantsAnswer);
   void receiveBeacons();
@@ -198,6 +215,12 @@ class Network::Impl {
   // PEIS starting together do not link to every target they pass through.
   void scheduleDials();
   void pruneLinks();
+  // Runs pruneLinks once the membership and the links have been settled for
+  // kLinkGrace (not only at the next beacon, which may be 8 s away).
+  void schedulePrune();
+  void armPrune(SteadyClock::time_point at);
+  asio::steady_timer pruneTimer_{io_};
+  bool pruneArmed_ = false;
   void armBeacon(SteadyClock::time_point at);
   void membershipChanged(SteadyClock::time_point now);
   std::vector<PeisId> overlayIds() const;
@@ -209,20 +232,21 @@ class Network::Impl {
   udp::socket udp_;
   udp::endpoint beaconFrom_;
   std::array<char, 512> beaconBuffer_{};
-  asio::steady_timer beaconTimer_, pingTimer_, advertTimer_, redialTimer_, dialTimer_, acceptRetry_;
+  asio::steady_timer beaconTimer_, pingTimer_, redialTimer_, dialTimer_, acceptRetry_;
   bool dialsPending_ = false;
-  bool recomputeScheduled_ = false;
-  asio::steady_timer recomputeTimer_{io_};
+  Throttle recomputeThrottle_{io_}, advertThrottle_{io_};
   SteadyClock::time_point membershipChanged_;
   std::chrono::milliseconds beaconInterval_{0};  // the current beacon period
   SteadyClock::time_point beaconDue_;
   SteadyClock::time_point dialsFirstAsked_;
-  bool advertScheduled_ = false;
   std::vector<std::shared_ptr<Link>> links_;
   std::vector<std::weak_ptr<Link>> explicitLinks_;
   std::map<PeisId, Route> routes_;
   // What each linked PEIS told us it can reach (applied as deltas).
   std::map<PeisId, std::map<PeisId, wire::RouteEntry>> adverts_;
+  std::set<PeisId> dirty_;           // ids whose route recompute() must re-evaluate
+  std::set<PeisId> advertDirty_;     // ids whose route changed since the last advert
+  std::uint64_t collisionSeen_ = 0;  // a neighbour advertised our id with another incarnation
   std::map<PeisId, BeaconPeer> beaconPeers_;
   std::set<PeisId> dialing_;
 };
@@ -313,6 +337,7 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   SteadyClock::time_point lastSent_;
   SteadyClock::time_point establishedAt_;
   std::map<PeisId, wire::RouteEntry> told_;  // the routes this peer last heard from us
+  bool toldAll_ = false;                     // it got our whole table once
   int malformed_ = 0;
   bool closed_ = false;
   // The last source whose frames passed onRouted's checks on this link, and
@@ -529,6 +554,11 @@ void Network::Impl::start() {
       udp_.close(ec);
     } else {
       receiveBeacons();
+      // The configured period until the membership has been stable for a
+      // period (from 0, the back-off below would stay at 0: a PEIS alone
+      // would beacon without pause).
+      beaconInterval_ = config_.beaconPeriod;
+      membershipChanged_ = SteadyClock::now();
       beaconLoop();
     }
   }
@@ -548,10 +578,11 @@ void Network::Impl::stop() {
   udp_.close(ec);
   beaconTimer_.cancel();
   pingTimer_.cancel();
-  advertTimer_.cancel();
+  advertThrottle_.timer.cancel();
   redialTimer_.cancel();
   dialTimer_.cancel();
-  recomputeTimer_.cancel();
+  recomputeThrottle_.timer.cancel();
+  pruneTimer_.cancel();
   acceptRetry_.cancel();
   auto links = links_;
   for (auto& link : links) link->close("shutting down");
@@ -608,10 +639,18 @@ void Network::Impl::onClosed(const std::shared_ptr<Link>& link, const std::strin
   links_.erase(std::remove(links_.begin(), links_.end(), link), links_.end());
   if (link->dialTarget_ != 0) dialing_.erase(link->dialTarget_);
   if (link->established_) {
+    ++routesEpoch_;  // sources checked on other links may now be judged otherwise
     dialing_.erase(link->peer_.id);
     log::info(self_, "link to PEIS " + std::to_string(link->peer_.id) + " (" + link->remote_ +
                          ") closed: " + reason);
-    if (!linkTo(link->peer_.id)) adverts_.erase(link->peer_.id);
+    const PeisId peer = link->peer_.id;
+    if (!linkTo(peer)) {
+      adverts_.erase(peer);
+      dirty_.insert(peer);
+      for (const auto& [id, route] : routes_) {
+        if (route.nextHop == peer && route.hops > 0) dirty_.insert(id);
+      }
+    }
     recompute();
   } else {
     log::debug(self_, "link " + link->remote_ + " closed before the handshake: " + reason);
@@ -658,15 +697,28 @@ void Network::Impl::onFrame(const std::shared_ptr<Link>& link, std::string_view 
     link->sendFrame(out);
   } else if (auto* routes = std::get_if<wire::Routes>(&message)) {
     ++routesEpoch_;
-    auto& known = adverts_[link->peer_.id];
+    const PeisId from = link->peer_.id;
+    auto& known = adverts_[from];
     for (auto& entry : routes->entries) {
-      if (entry.hops == kWithdrawn) {
-        known.erase(entry.id);
-      } else {
-        known[entry.id] = std::move(entry);
+      if (entry.id == self_) {
+        // Its own entry (0 hops) naming our id: another PEIS holds it.
+        if (entry.hops == 0 && entry.incarnation != incarnation_) {
+          collisionSeen_ = entry.incarnation;
+        }
+        continue;
       }
+      const auto id = entry.id;
+      const auto hops = entry.hops;
+      if (hops == kWithdrawn) {
+        if (known.erase(id) == 0) continue;
+      } else {
+        known[id] = std::move(entry);
+      }
+      advertChanged(from, id, hops);
     }
-    scheduleRecompute();  // adverts arrive in bursts: recompute once per burst
+    if (collisionSeen_ != 0 || !dirty_.empty()) {
+      scheduleRecompute();  // adverts arrive in bursts: recompute once per burst
+    }
   } else if (auto* taken = std::get_if<wire::IdTaken>(&message)) {
     if (taken->id == self_ && taken->incarnation == incarnation_) collision(0);
   }
@@ -712,13 +764,18 @@ void Network::Impl::onHello(const std::shared_ptr<Link>& link, const wire::Hello
     existing->close("replaced by a new link");
   }
   link->established_ = true;
+  ++routesEpoch_;
   link->establishedAt_ = SteadyClock::now();
+  if (link->explicitIndex_ < 0) schedulePrune();
   link->peer_ = hello;
   dialing_.erase(hello.id);
   log::info(self_, "linked to PEIS " + std::to_string(hello.id) + " '" + hello.name + "' at " +
                        link->remote_ + (link->outbound_ ? " (dialled)" : " (accepted)"));
+  dirty_.insert(hello.id);
   recompute();
-  advertise();
+  // The new link gets the whole table now; the others hear of the new route
+  // with the next advert.
+  if (!link->closed_) advertiseAll(*link);
 }
 
 void Network::Impl::collision(std::uint64_t otherIncarnation) {
@@ -730,6 +787,9 @@ void Network::Impl::collision(std::uint64_t otherIncarnation) {
   routes_.clear();
   adverts_.clear();
   ++routesEpoch_;
+  dirty_.clear();
+  advertDirty_.clear();
+  collisionSeen_ = 0;
   auto links = links_;
   for (auto& l : links) l->close("re-picked my id");
   routes_[self_] = Route{0, self_, incarnation_, config_.name};
@@ -750,7 +810,7 @@ void Network::Impl::onRouted(const std::shared_ptr<Link>& link, std::string_view
   // stream of frames from one source skips them while nothing changed.
   if (link->checkedSource_ != envelope.source || link->checkedEpoch_ != routesEpoch_) {
     // Its route may sit in an advert whose recompute is still pending.
-    if (!routes_.count(envelope.source) && recomputeScheduled_) recompute();
+    if (!routes_.count(envelope.source) && recomputeThrottle_.scheduled) recompute();
     // A linked PEIS sends its own frames over its own link, so a frame
     // claiming its id from another link is spoofed, unless that link's PEIS
     // advertised a route to it: then it relays frames sent while routes were
@@ -809,7 +869,7 @@ void Network::Impl::forwardFrame(std::string_view frame, const wire::Envelope& e
   auto routedEnvelope = envelope;
   --routedEnvelope.ttl;
   wire::reEnvelope(copy, routedEnvelope);
-  forward(envelope.destination, std::move(copy));
+  forward(envelope.destination, std::move(copy), envelope.source);
 }
 
 // Frames held for an unknown source: process those whose source is now
@@ -847,7 +907,7 @@ Network::Impl::Link* Network::Impl::findLink(PeisId peer) const {
   return nullptr;
 }
 
-bool Network::Impl::forward(PeisId destination, std::string frame) {
+bool Network::Impl::forward(PeisId destination, std::string frame, PeisId relayedFrom) {
   auto route = routes_.find(destination);
   if (route == routes_.end() || route->second.hops == 0) {
     ++counters_.unroutable;
@@ -858,8 +918,28 @@ bool Network::Impl::forward(PeisId destination, std::string frame) {
     ++counters_.unroutable;
     return false;
   }
+  // The next hop takes a frame claiming a linked PEIS's id from another link
+  // for spoofed unless that link advertised a route to it: the advert must
+  // not lag behind the frames relayed from that PEIS (adverts are batched).
+  if (relayedFrom != 0 && link->toldAll_ && !link->told_.count(relayedFrom)) {
+    tellRoute(*link, relayedFrom);
+  }
   link->sendFrame(frame);
   return true;
+}
+
+void Network::Impl::tellRoute(Link& link, PeisId id) {
+  const auto route = routes_.find(id);
+  if (route == routes_.end()) return;
+  const auto& r = route->second;
+  if (r.hops > 0 && r.nextHop == link.peer_.id) return;  // split horizon
+  wire::RouteEntry entry{id, static_cast<std::uint8_t>(r.hops), r.incarnation, r.name};
+  link.told_.emplace(id, entry);
+  wire::Routes one;
+  one.entries.push_back(std::move(entry));
+  std::string out;
+  wire::encode(wire::LinkMessage{one}, out);
+  link.sendFrame(out);
 }
 
 bool Network::Impl::send(wire::RoutedMessage message) {
@@ -896,130 +976,192 @@ bool Network::Impl::sendFrames(PeisId destination, std::string_view frames, std:
   return true;
 }
 
-void Network::Impl::recompute() {
-  ++routesEpoch_;  // links or adverts changed (or may have): re-check sources
-  std::map<PeisId, Route> next;
-  next[self_] = Route{0, self_, incarnation_, config_.name};
-  // Builds a Route (and copies its name) only when it wins.
-  auto offer = [&](PeisId id, int hops, PeisId nextHop, std::uint64_t incarnation,
-                   const std::string& name) {
-    auto it = next.lower_bound(id);
-    if (it == next.end() || it->first != id) {
-      next.emplace_hint(it, id, Route{hops, nextHop, incarnation, name});
-      return;
-    }
-    auto& current = it->second;
-    if (hops > current.hops) return;
-    const auto old = routes_.find(id);
-    const bool keepsOld = old != routes_.end() && old->second.nextHop == nextHop;
-    if (hops < current.hops || keepsOld) current = Route{hops, nextHop, incarnation, name};
-  };
-  for (const auto& link : links_) {
-    if (!link->established_) continue;
-    const auto& peer = link->peer_;
-    offer(peer.id, 1, peer.id, peer.incarnation, peer.name);
-    auto advert = adverts_.find(peer.id);
-    if (advert == adverts_.end()) continue;
-    for (const auto& [entryId, entry] : advert->second) {
-      if (entry.id == self_) {
-        if (entry.incarnation != incarnation_ && entry.hops == 0) {
-          ++counters_.idCollisions;
-          collision(entry.incarnation);
-          return;
-        }
-        continue;
-      }
-      if (entry.hops + 1 > kMaxHops) continue;
-      offer(entry.id, entry.hops + 1, peer.id, entry.incarnation, entry.name);
-    }
-  }
-  if (next == routes_) return retryHeld();
-  auto old = std::move(routes_);
-  routes_ = std::move(next);
-  scheduleAdvert();
-  if (events_.onTopology) events_.onTopology();
-  retryHeld();
-  for (const auto& [id, route] : old) {
-    if (!routes_.count(id) && events_.onPeerDown) events_.onPeerDown(id);
-  }
-  for (const auto& [id, route] : routes_) {
-    if (id == self_) continue;
-    auto before = old.find(id);
-    if ((before == old.end() || before->second.incarnation != route.incarnation) &&
-        events_.onPeerUp) {
-      events_.onPeerUp(PeerInfo{id, route.name, route.incarnation, route.hops, route.nextHop});
-    }
+void Network::Impl::advertChanged(PeisId from, PeisId id, std::uint8_t hops) {
+  const auto route = routes_.find(id);
+  if (route == routes_.end() || route->second.nextHop == from ||
+      (hops != kWithdrawn && hops + 1 < route->second.hops)) {
+    dirty_.insert(id);
   }
 }
 
-// Runs `work` once, `delay` after the first of any number of requests.
-void Network::Impl::debounce(asio::steady_timer& timer, bool& scheduled,
-                             std::chrono::milliseconds delay, void (Impl::*work)()) {
-  if (scheduled || stopped_) return;
-  scheduled = true;
-  timer.expires_after(delay);
-  timer.async_wait([this, &scheduled, work](const boost::system::error_code& ec) {
-    scheduled = false;
-    if (!ec && !stopped_) (this->*work)();
+// Distance vector: the shortest route over the links and their adverts wins;
+// on a tie the current next hop is kept, else the first link offering it.
+// Only the dirty ids are evaluated: every other route is unchanged, since
+// none of its candidates changed in a way that could move it.
+void Network::Impl::recompute() {
+  ++routesEpoch_;  // links or adverts changed (or may have): re-check sources
+  if (collisionSeen_ != 0) {
+    const auto other = collisionSeen_;
+    collisionSeen_ = 0;
+    ++counters_.idCollisions;
+    collision(other);
+    return;
+  }
+  if (dirty_.empty()) return retryHeld();
+  struct Neighbour {
+    const wire::Hello* peer;
+    const std::map<PeisId, wire::RouteEntry>* advert;
+  };
+  std::vector<Neighbour> neighbours;
+  neighbours.reserve(links_.size());
+  for (const auto& link : links_) {
+    if (!link->established_) continue;
+    const auto advert = adverts_.find(link->peer_.id);
+    neighbours.push_back(
+        Neighbour{&link->peer_, advert == adverts_.end() ? nullptr : &advert->second});
+  }
+  std::vector<PeisId> up, down;
+  bool changed = false;
+  const auto dirty = std::move(dirty_);
+  dirty_.clear();
+  for (const PeisId id : dirty) {
+    if (id == self_) continue;
+    const auto old = routes_.find(id);
+    const PeisId oldNextHop = old == routes_.end() ? 0 : old->second.nextHop;
+    int bestHops = kMaxHops + 1;
+    PeisId bestNextHop = 0;
+    std::uint64_t bestIncarnation = 0;
+    const std::string* bestName = nullptr;
+    auto offer = [&](int hops, PeisId nextHop, std::uint64_t incarnation, const std::string& name) {
+      if (hops > bestHops) return;
+      if (hops < bestHops || nextHop == oldNextHop) {
+        bestHops = hops;
+        bestNextHop = nextHop;
+        bestIncarnation = incarnation;
+        bestName = &name;
+      }
+    };
+    for (const auto& n : neighbours) {
+      if (n.peer->id == id) offer(1, id, n.peer->incarnation, n.peer->name);
+      if (!n.advert) continue;
+      const auto entry = n.advert->find(id);
+      if (entry == n.advert->end() || entry->second.hops + 1 > kMaxHops) continue;
+      offer(entry->second.hops + 1, n.peer->id, entry->second.incarnation, entry->second.name);
+    }
+    if (!bestName) {
+      if (old == routes_.end()) continue;
+      routes_.erase(old);
+      advertDirty_.insert(id);
+      down.push_back(id);
+      changed = true;
+      continue;
+    }
+    Route best{bestHops, bestNextHop, bestIncarnation, *bestName};
+    if (old == routes_.end()) {
+      routes_.emplace(id, std::move(best));
+      up.push_back(id);
+    } else if (old->second != best) {
+      if (old->second.incarnation != best.incarnation) up.push_back(id);
+      old->second = std::move(best);
+    } else {
+      continue;
+    }
+    advertDirty_.insert(id);
+    changed = true;
+  }
+  if (!changed) return retryHeld();
+  scheduleAdvert();
+  retryHeld();
+  for (const PeisId id : down) {
+    if (events_.onPeerDown) events_.onPeerDown(id);
+  }
+  for (const PeisId id : up) {
+    const auto route = routes_.find(id);
+    if (route == routes_.end() || !events_.onPeerUp) continue;
+    const auto& r = route->second;
+    events_.onPeerUp(PeerInfo{id, r.name, r.incarnation, r.hops, r.nextHop});
+  }
+  if (events_.onTopology) events_.onTopology();
+}
+
+// Runs `work` once for any number of requests: right after the handlers
+// already queued (what one socket read brought) if it last ran at least
+// `interval` ago, else `interval` after that last run. A lone change goes
+// out at once; a stream of changes costs one run per interval.
+void Network::Impl::throttle(Throttle& t, std::chrono::milliseconds interval,
+                             void (Impl::*work)()) {
+  if (t.scheduled || stopped_) return;
+  t.scheduled = true;
+  t.timer.expires_at(std::max(SteadyClock::now(), t.last + interval));
+  t.timer.async_wait([this, &t, work](const boost::system::error_code& ec) {
+    t.scheduled = false;
+    if (ec || stopped_) return;
+    t.last = SteadyClock::now();
+    (this->*work)();
   });
 }
 
 void Network::Impl::scheduleRecompute() {
-  debounce(recomputeTimer_, recomputeScheduled_, kRecomputeDelay, &Impl::recompute);
+  throttle(recomputeThrottle_, kRecomputeDelay, &Impl::recompute);
 }
 
-void Network::Impl::scheduleAdvert() {
-  debounce(advertTimer_, advertScheduled_, kAdvertDelay, &Impl::advertise);
-}
+void Network::Impl::scheduleAdvert() { throttle(advertThrottle_, kAdvertDelay, &Impl::advertise); }
 
 // Tells each linked PEIS what changed in the routes it should know (split
-// horizon: never a route back through itself). A new link gets everything.
-// One merge pass over two id-ordered maps per link: no allocation unless
-// something changed.
+// horizon: never a route back through itself): only the ids whose route
+// changed since the last advert are looked at.
 void Network::Impl::advertise() {
+  if (advertDirty_.empty()) return;
+  const auto changed = std::move(advertDirty_);
+  advertDirty_.clear();
   for (const auto& link : links_) {
     if (!link->established_) continue;
+    if (!link->toldAll_) {
+      advertiseAll(*link);
+      continue;
+    }
     const PeisId peer = link->peer_.id;
     auto& told = link->told_;
     wire::Routes delta;
-    auto r = routes_.begin();
-    auto t = told.begin();
-    while (r != routes_.end() || t != told.end()) {
-      const bool routeFirst = t == told.end() || (r != routes_.end() && r->first < t->first);
-      const bool toldFirst = r == routes_.end() || (t != told.end() && t->first < r->first);
-      if (routeFirst) {
-        const auto& [id, route] = *r++;
-        if (route.hops > 0 && route.nextHop == peer) continue;  // split horizon
-        wire::RouteEntry entry{id, static_cast<std::uint8_t>(route.hops), route.incarnation,
-                               route.name};
-        told.emplace_hint(t, id, entry);
-        delta.entries.push_back(std::move(entry));
-      } else if (toldFirst) {
-        delta.entries.push_back(wire::RouteEntry{t->first, kWithdrawn, 0, ""});
-        t = told.erase(t);
-      } else {
-        const auto& route = r->second;
-        if (route.hops > 0 && route.nextHop == peer) {
-          delta.entries.push_back(wire::RouteEntry{t->first, kWithdrawn, 0, ""});
-          t = told.erase(t);
-        } else {
-          auto& entry = t->second;
-          if (entry.hops != route.hops || entry.incarnation != route.incarnation ||
-              entry.name != route.name) {
-            entry = wire::RouteEntry{r->first, static_cast<std::uint8_t>(route.hops),
-                                     route.incarnation, route.name};
-            delta.entries.push_back(entry);
-          }
-          ++t;
-        }
-        ++r;
+    for (const PeisId id : changed) {
+      const auto r = routes_.find(id);
+      const bool tell = r != routes_.end() && !(r->second.hops > 0 && r->second.nextHop == peer);
+      const auto t = told.find(id);
+      if (!tell) {
+        if (t == told.end()) continue;
+        delta.entries.push_back(wire::RouteEntry{id, kWithdrawn, 0, ""});
+        told.erase(t);
+        continue;
       }
+      const auto& route = r->second;
+      if (t != told.end() && t->second.hops == route.hops &&
+          t->second.incarnation == route.incarnation && t->second.name == route.name) {
+        continue;
+      }
+      wire::RouteEntry entry{id, static_cast<std::uint8_t>(route.hops), route.incarnation,
+                             route.name};
+      if (t == told.end()) {
+        told.emplace(id, entry);
+      } else {
+        t->second = entry;
+      }
+      delta.entries.push_back(std::move(entry));
     }
     if (delta.entries.empty()) continue;
     std::string out;
     wire::encode(wire::LinkMessage{delta}, out);
     link->sendFrame(out);
   }
+}
+
+// A new link's first advert: the whole table, less the routes through it.
+void Network::Impl::advertiseAll(Link& link) {
+  const PeisId peer = link.peer_.id;
+  auto& told = link.told_;
+  told.clear();
+  link.toldAll_ = true;
+  wire::Routes all;
+  for (const auto& [id, route] : routes_) {
+    if (route.hops > 0 && route.nextHop == peer) continue;  // split horizon
+    wire::RouteEntry entry{id, static_cast<std::uint8_t>(route.hops), route.incarnation,
+                           route.name};
+    told.emplace_hint(told.end(), id, entry);
+    all.entries.push_back(std::move(entry));
+  }
+  if (all.entries.empty()) return;
+  std::string out;
+  wire::encode(wire::LinkMessage{all}, out);
+  link.sendFrame(out);
 }
 
 void Network::Impl::pingLoop() {
@@ -1106,6 +1248,7 @@ void Network::Impl::armBeacon(SteadyClock::time_point at) {
 // The membership changed: beacon at the configured period again.
 void Network::Impl::membershipChanged(SteadyClock::time_point now) {
   membershipChanged_ = now;
+  schedulePrune();
   if (beaconInterval_ == config_.beaconPeriod) return;
   beaconInterval_ = config_.beaconPeriod;
   if (udp_.is_open() && beaconDue_ > now + beaconInterval_) armBeacon(now + beaconInterval_);
@@ -1149,7 +1292,14 @@ void Network::Impl::onBeacon(const Beacon& beacon, const udp::endpoint& from) {
   if (isNew) membershipChanged(SteadyClock::now());
   it->second = BeaconPeer{from.address(), beacon.port, beacon.incarnation, SteadyClock::now()};
   if (isNew) {
-    if (beacon.wantsAnswer) sendBeacon(from, false);
+    // Only a PEIS the newcomer should link with answers at once (its
+    // fingers, and those whose finger it is): the newcomer learns its
+    // overlay neighbours now, the others from their next beacon, which the
+    // change brings within a beacon period. N answers to each of N joining
+    // PEIS were most of the beacon traffic of a join storm.
+    if (beacon.wantsAnswer && overlayWantsSorted(overlayIds(), self_, beacon.id)) {
+      sendBeacon(from, false);
+    }
     scheduleDials();
   }
 }
@@ -1181,9 +1331,8 @@ void Network::Impl::scheduleDials() {
 
 void Network::Impl::evaluateDials() {
   const auto ids = overlayIds();
-  for (const PeisId target : ids) {
-    if (target <= self_ || !overlayWants(ids, self_, target)) continue;
-    if (linkTo(target) || dialing_.count(target)) continue;
+  for (const PeisId target : overlayPeers(ids, self_)) {
+    if (target <= self_ || linkTo(target) || dialing_.count(target)) continue;
     const auto& peer = beaconPeers_[target];
     log::debug(self_, "dialling PEIS " + std::to_string(target) + " (overlay of " +
                           std::to_string(ids.size()) + ")");
@@ -1201,6 +1350,29 @@ void Network::Impl::evaluateDials() {
   }
 }
 
+void Network::Impl::schedulePrune() {
+  if (stopped_ || pruneArmed_) return;  // when it fires, it waits longer if needed
+  armPrune(SteadyClock::now() + kLinkGrace);
+}
+
+void Network::Impl::armPrune(SteadyClock::time_point at) {
+  pruneArmed_ = true;
+  pruneTimer_.expires_at(at);
+  pruneTimer_.async_wait([this](const boost::system::error_code& ec) {
+    pruneArmed_ = false;
+    if (ec || stopped_) return;
+    // Settled: no membership change and no new discovered link for kLinkGrace.
+    auto settled = membershipChanged_;
+    for (const auto& link : links_) {
+      if (link->established_ && link->explicitIndex_ < 0) {
+        settled = std::max(settled, link->establishedAt_);
+      }
+    }
+    if (SteadyClock::now() < settled + kLinkGrace) return armPrune(settled + kLinkGrace);
+    pruneLinks();
+  });
+}
+
 // While PEIS join, the overlay's wanted pairs shift and links pile up; the
 // lower id of a pair closes a discovered link the overlay no longer wants
 // once it has settled for a while.
@@ -1214,7 +1386,7 @@ void Network::Impl::pruneLinks() {
     if (!link->established_ || link->explicitIndex_ >= 0) continue;
     const PeisId peer = link->peer_.id;
     if (self_ > peer || !beaconPeers_.count(peer)) continue;
-    if (now - link->establishedAt_ < kLinkGrace || overlayWants(ids, self_, peer)) continue;
+    if (now - link->establishedAt_ < kLinkGrace || overlayWantsSorted(ids, self_, peer)) continue;
     // Never cut a PEIS off: another neighbour must offer a route to it.
     bool alternative = false;
     for (const auto& [neighbour, advert] : adverts_) {

@@ -75,7 +75,8 @@ class Network {
     std::function<void(const PeerInfo&)> onPeerUp;
     // A PEIS is no longer reachable.
     std::function<void(PeisId)> onPeerDown;
-    // Routes or links changed (hops, next hops, a link opened or closed).
+    // Routes or links changed (hops, next hops, a link opened or closed);
+    // fires after the onPeerUp / onPeerDown events of the same change.
     std::function<void()> onTopology;
     // The links drained after congested() said true: send more.
     std::function<void()> onWritable;

@@ -34,4 +34,46 @@ bool overlayWants(const std::vector<PeisId>& ids, PeisId a, PeisId b) {
   return std::find(fb.begin(), fb.end(), a) != fb.end();
 }
 
+namespace {
+
+constexpr std::uint64_t kRing = 1ull << 31;
+
+std::uint64_t distance(PeisId from, PeisId to) {
+  return (static_cast<std::uint64_t>(to) + kRing - static_cast<std::uint64_t>(from)) % kRing;
+}
+
+// Whether some id lies in the ring interval [from, to) (from != to).
+bool anyIn(const std::vector<PeisId>& sorted, std::uint64_t from, std::uint64_t to) {
+  auto at = [&](std::uint64_t v) {
+    return std::lower_bound(sorted.begin(), sorted.end(), static_cast<PeisId>(v));
+  };
+  if (from < to) return at(from) != at(to);
+  return at(from) != sorted.end() || at(to) != sorted.begin();  // wraps past 2^31
+}
+
+// b is a's finger: no id lies after a+2^k and before b, k being the power of
+// two of their distance (the ids nearer than 2^k are in other intervals).
+bool isFinger(const std::vector<PeisId>& sorted, PeisId a, PeisId b) {
+  const auto d = distance(a, b);
+  if (d == 0) return false;
+  const auto k = 63 - __builtin_clzll(d);
+  const auto from = (static_cast<std::uint64_t>(a) + (1ull << k)) % kRing;
+  return from == static_cast<std::uint64_t>(b) ||
+         !anyIn(sorted, from, static_cast<std::uint64_t>(b));
+}
+
+}  // namespace
+
+bool overlayWantsSorted(const std::vector<PeisId>& sortedIds, PeisId a, PeisId b) {
+  return isFinger(sortedIds, a, b) || isFinger(sortedIds, b, a);
+}
+
+std::vector<PeisId> overlayPeers(const std::vector<PeisId>& sortedIds, PeisId a) {
+  std::vector<PeisId> result;
+  for (const PeisId b : sortedIds) {
+    if (b != a && overlayWantsSorted(sortedIds, a, b)) result.push_back(b);
+  }
+  return result;
+}
+
 }  // namespace peis::net

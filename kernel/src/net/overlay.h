@@ -20,4 +20,10 @@ namespace peis::net {
 std::vector<PeisId> fingers(const std::vector<PeisId>& ids, PeisId a);
 bool overlayWants(const std::vector<PeisId>& ids, PeisId a, PeisId b);
 
+// The same on ids sorted ascending without duplicates (which must hold `a`
+// and `b`): O(log N) a pair, by binary search, instead of O(N).
+bool overlayWantsSorted(const std::vector<PeisId>& sortedIds, PeisId a, PeisId b);
+// Every b that overlayWants(ids, a, b), ascending: O(N log N).
+std::vector<PeisId> overlayPeers(const std::vector<PeisId>& sortedIds, PeisId a);
+
 }  // namespace peis::net
