@@ -37,6 +37,7 @@ constexpr int kMaxHops = 32;
 constexpr std::uint8_t kWithdrawn = 255;  // a route entry that is no longer valid
 constexpr std::size_t kReadChunk = 32 * 1024;
 constexpr std::size_t kWriteChunk = 256 * 1024;
+constexpr std::size_t kFirstChunkBytes = 4 * 1024;  // a new write chunk's first memory
 // Tuple data from this size on is written from the tuple, not copied.
 constexpr std::size_t kZeroCopyBytes = wire::kZeroCopyDataBytes;
 constexpr std::size_t kGatherChunks = 16;  // chunks per gathered write, at most
@@ -356,17 +357,16 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   }
 
   // The chunk to append `bytes` of frames to: the last one, unless it is
-  // full, ends in a tuple's data, or would have to grow (a copy).
+  // full or ends in a tuple's data. A chunk starts small (an idle link's
+  // pings cost little memory) and doubles while a stream fills it.
   std::string& appendable(std::size_t bytes) {
-    if (chunks_.empty() || chunks_.back().tail || chunks_.back().bytes.size() >= kWriteChunk ||
-        (!chunks_.back().bytes.empty() &&
-         chunks_.back().bytes.capacity() < chunks_.back().bytes.size() + bytes)) {
+    if (chunks_.empty() || chunks_.back().tail || chunks_.back().bytes.size() >= kWriteChunk) {
       chunks_.emplace_back().bytes = std::move(spareChunk_);
       spareChunk_ = std::string();
     }
     auto& chunk = chunks_.back().bytes;
     if (chunk.capacity() < chunk.size() + bytes) {
-      chunk.reserve(std::max(chunk.size() + bytes, kWriteChunk + kWriteChunk / 8));
+      chunk.reserve(std::max({chunk.size() + bytes, 2 * chunk.capacity(), kFirstChunkBytes}));
     }
     return chunk;
   }
@@ -376,7 +376,7 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   void keepSpareChunk() {
     for (auto& chunk : outChunks_) {
       if (spareChunk_.capacity() >= kWriteChunk) return;
-      if (chunk.bytes.capacity() > kWriteChunk + kWriteChunk / 8) continue;
+      if (chunk.bytes.capacity() > 2 * kWriteChunk) continue;
       chunk.bytes.clear();
       spareChunk_ = std::move(chunk.bytes);
     }
@@ -425,7 +425,7 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
     if (closed_) return;
     makeReadRoom();
     socket_.async_read_some(
-        asio::buffer(in_.data() + inEnd_, in_.size() - inEnd_),
+        asio::buffer(in_.get() + inEnd_, inCapacity_ - inEnd_),
         [self = shared_from_this()](const boost::system::error_code& ec, std::size_t n) {
           if (ec) {
             return self->close(ec == asio::error::eof ? "closed by peer" : ec.message());
@@ -445,46 +445,54 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
     std::size_t want = kReadChunk;
     if (pending >= wire::kFrameHeaderBytes) {
       const auto frame =
-          wire::kFrameHeaderBytes + wire::frameLength(std::string_view(in_).substr(inPos_));
+          wire::kFrameHeaderBytes + wire::frameLength(std::string_view(in_.get() + inPos_, 4));
       // (parse() has closed the link on an impossible length already)
       if (frame > pending && frame <= net_.maxFrameBytes() + wire::kFrameHeaderBytes) {
         want = std::max(want, frame - pending);
       }
     }
-    if (in_.size() - inEnd_ >= want) return;
+    if (inCapacity_ - inEnd_ >= want) return;
     if (inPos_ > 0) {  // move the partial frame to the front
-      std::memmove(in_.data(), in_.data() + inPos_, pending);
+      std::memmove(in_.get(), in_.get() + inPos_, pending);
       inPos_ = 0;
       inEnd_ = pending;
     }
-    if (in_.size() - inEnd_ < want) in_.resize(inEnd_ + want);
+    if (inCapacity_ - inEnd_ < want) {
+      // Not value-initialised: only the bytes the socket writes get touched
+      // (an idle link costs no resident memory for its buffer).
+      std::unique_ptr<char[]> bigger(new char[inEnd_ + want]);
+      if (inEnd_ > 0) std::memcpy(bigger.get(), in_.get(), inEnd_);
+      in_ = std::move(bigger);
+      inCapacity_ = inEnd_ + want;
+    }
   }
 
   void parse() {
     while (!closed_) {
       const std::size_t available = inEnd_ - inPos_;
       if (available < wire::kFrameHeaderBytes) break;
-      const auto length = wire::frameLength(std::string_view(in_).substr(inPos_));
+      const auto length = wire::frameLength(std::string_view(in_.get() + inPos_, available));
       if (length == 0 || length > net_.maxFrameBytes()) {
         ++net_.counters_.malformedFrames;
         ++net_.counters_.garbagePeersDisconnected;
         return close("frame length " + std::to_string(length) + " is impossible: garbage");
       }
       if (available < wire::kFrameHeaderBytes + length) break;
-      const auto frame = std::string_view(in_).substr(inPos_ + wire::kFrameHeaderBytes, length);
+      const auto frame = std::string_view(in_.get() + inPos_ + wire::kFrameHeaderBytes, length);
       inPos_ += wire::kFrameHeaderBytes + length;
       net_.onFrame(shared_from_this(), frame);
     }
     if (inPos_ == inEnd_) {
       inPos_ = inEnd_ = 0;
-      if (in_.size() > (1u << 20)) {  // after a huge frame
-        in_.clear();
-        in_.shrink_to_fit();
+      if (inCapacity_ > (1u << 20)) {  // after a huge frame
+        in_.reset();
+        inCapacity_ = 0;
       }
     }
   }
 
-  std::string in_;
+  std::unique_ptr<char[]> in_;
+  std::size_t inCapacity_ = 0;
   std::size_t inPos_ = 0, inEnd_ = 0;
   // Frames waiting to be written: bytes, then (when set) a tuple's data,
   // which is the end of the frame those bytes begin.
