@@ -891,7 +891,8 @@ NetworkStats Kernel::networkStats() const {
                          c.unroutable,
                          c.coalesced,
                          c.idCollisions,
-                         c.malformedBeacons};
+                         c.malformedBeacons,
+                         c.beaconsSuppressed};
     std::lock_guard lock(impl_->mu);
     stats.coalesced += impl_->replication.coalesced();
   };

@@ -897,3 +897,53 @@ TEST_CASE("a fast stream of small and big tuples arrives in order, intact, with 
   INFO("delivered " << delivered << ", coalesced " << writer.networkStats().coalesced);
   CHECK(delivered + writer.networkStats().coalesced >= kWrites);
 }
+
+// A stable ecology skips most periodic beacons (each PEIS that heard three
+// others stays quiet), yet a PEIS that joins later still finds everybody
+// and everybody finds it.
+TEST_CASE("a stable ecology suppresses beacons and still finds a newcomer", "[integration]") {
+  const auto ecology = uniqueEcology("quiet");
+  std::vector<std::unique_ptr<peis::Kernel>> members;
+  for (int i = 0; i < 5; ++i) {
+    members.push_back(
+        std::make_unique<peis::Kernel>(kernelOptions(ecology, "member" + std::to_string(i))));
+  }
+  auto suppressed = [&] {
+    std::uint64_t total = 0;
+    for (const auto& m : members) total += m->networkStats().beaconsSuppressed;
+    return total;
+  };
+  StateReport report([&] { return "suppressed " + std::to_string(suppressed()); });
+  REQUIRE_WAIT(
+      [&] {
+        for (const auto& m : members) {
+          if (m->peers().size() != members.size()) return false;  // itself included
+        }
+        return true;
+      },
+      kDeadline);
+  REQUIRE_WAIT([&] { return suppressed() > 0; }, std::chrono::milliseconds(30s));
+
+  auto newcomer = startNode(ecology, {"--peis-name", "late"});
+  const auto late = awaitNode(*newcomer);
+  REQUIRE_WAIT(
+      [&] {
+        for (const auto& m : members) {
+          if (!hasPeer(*m, late.id)) return false;
+        }
+        return true;
+      },
+      kDeadline);
+  // And the newcomer knows every member (its kernel.peers tuple).
+  members[0]->subscribe(peis::Pattern::exact(late.id, peis::special::kPeers));
+  REQUIRE_WAIT(
+      [&] {
+        const auto peers = members[0]->get(late.id, peis::special::kPeers);
+        if (!peers) return false;
+        for (const auto& m : members) {
+          if (!listContains(peers->data, m->id())) return false;
+        }
+        return true;
+      },
+      kDeadline);
+}

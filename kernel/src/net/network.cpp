@@ -3,6 +3,9 @@
 #include "net/network.h"
 
 #include <ifaddrs.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 #include <net/if.h>
 #include <netinet/in.h>
 
@@ -51,6 +54,7 @@ constexpr std::chrono::seconds kHoldFor{3};  // how long a frame waits for its s
 constexpr std::size_t kMaxHeldFrames = 1024;
 constexpr std::chrono::milliseconds kDialMaxDelay{1000};
 constexpr int kMaxBeaconBackoff = 8;  // beacon period at most 8x the configured one
+constexpr int kBeaconQuorum = 3;      // beacons heard that make a stable PEIS skip its own
 
 std::string endpointText(const tcp::endpoint& e) {
   return e.address().to_string() + ":" + std::to_string(e.port());
@@ -238,6 +242,7 @@ class Network::Impl {
   Throttle recomputeThrottle_{io_}, advertThrottle_{io_};
   SteadyClock::time_point membershipChanged_;
   std::chrono::milliseconds beaconInterval_{0};  // the current beacon period
+  int beaconsHeard_ = 0;                         // broadcast beacons of others since our last one
   SteadyClock::time_point beaconDue_;
   SteadyClock::time_point dialsFirstAsked_;
   std::vector<std::shared_ptr<Link>> links_;
@@ -1215,11 +1220,22 @@ void Network::Impl::redialLoop() {
 }
 
 void Network::Impl::beaconLoop() {
-  for (const auto& address : broadcastAddresses(config_.discovery)) {
-    sendBeacon(udp::endpoint(address, config_.discoveryPort), true);
-  }
-  // Forget beacon peers that went quiet.
   const auto now = SteadyClock::now();
+  // Suppression: while the membership is stable, a PEIS that heard the
+  // beacons of kBeaconQuorum others since its own last one skips this one.
+  // Newcomers and healed partitions are still found through those others;
+  // each PEIS then receives a few beacons a period instead of one from every
+  // PEIS. After a change nobody skips, so a newcomer hears everybody.
+  const bool stable = now - membershipChanged_ >= beaconInterval_;
+  if (!stable || beaconsHeard_ < kBeaconQuorum) {
+    for (const auto& address : broadcastAddresses(config_.discovery)) {
+      sendBeacon(udp::endpoint(address, config_.discoveryPort), true);
+    }
+  } else {
+    ++counters_.beaconsSuppressed;
+  }
+  beaconsHeard_ = 0;
+  // Forget beacon peers that went quiet.
   // A PEIS still reachable by route is alive even if its beacons are late
   // (a loaded host): forgetting it would reshape the overlay for nothing.
   for (auto it = beaconPeers_.begin(); it != beaconPeers_.end();) {
@@ -1295,6 +1311,7 @@ void Network::Impl::onBeacon(const Beacon& beacon, const udp::endpoint& from) {
     }
     return;
   }
+  if (beacon.wantsAnswer) ++beaconsHeard_;
   auto [it, isNew] = beaconPeers_.try_emplace(beacon.id);
   isNew = isNew || it->second.incarnation != beacon.incarnation;
   if (isNew) membershipChanged(SteadyClock::now());
@@ -1378,6 +1395,12 @@ void Network::Impl::armPrune(SteadyClock::time_point at) {
     }
     if (SteadyClock::now() < settled + kLinkGrace) return armPrune(settled + kLinkGrace);
     pruneLinks();
+    // The churn of a join (transient links, their buffers, held frames) has
+    // settled: give the memory it freed back to the system instead of
+    // keeping it resident for good (glibc keeps freed pages otherwise).
+#ifdef __GLIBC__
+    malloc_trim(0);
+#endif
   });
 }
 

@@ -63,6 +63,7 @@ struct Counters {
   std::uint64_t coalesced = 0;
   std::uint64_t idCollisions = 0;
   std::uint64_t malformedBeacons = 0;
+  std::uint64_t beaconsSuppressed = 0;  // periodic beacons skipped (docs/protocol.md §6)
 };
 
 class Network {
