@@ -16,6 +16,7 @@
 #include <boost/asio/ip/udp.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <boost/asio/write.hpp>
+#include <boost/container/flat_map.hpp>
 #include <cstring>
 #include <deque>
 #include <map>
@@ -38,7 +39,11 @@ namespace {
 
 constexpr int kMaxHops = 32;
 constexpr std::uint8_t kWithdrawn = 255;  // a route entry that is no longer valid
-constexpr std::size_t kReadChunk = 32 * 1024;
+// A link reads at most readRoom_ bytes at a time: 4 KiB at first (an idle
+// link's buffer stays small), doubling up to 32 KiB while reads fill it
+// (64 KiB reads measured slower: a read's tuples then outgrow the caches).
+constexpr std::size_t kFirstReadRoom = 4 * 1024;
+constexpr std::size_t kMaxReadRoom = 32 * 1024;
 constexpr std::size_t kWriteChunk = 256 * 1024;
 constexpr std::size_t kFirstChunkBytes = 4 * 1024;  // a new write chunk's first memory
 // Tuple data from this size on is written from the tuple, not copied.
@@ -55,6 +60,15 @@ constexpr std::size_t kMaxHeldFrames = 1024;
 constexpr std::chrono::milliseconds kDialMaxDelay{1000};
 constexpr int kMaxBeaconBackoff = 8;  // beacon period at most 8x the configured one
 constexpr int kBeaconQuorum = 3;      // beacons heard that make a stable PEIS skip its own
+
+// What a link's peer last heard from us about one route (for deltas).
+struct ToldRoute {
+  std::uint64_t incarnation = 0;
+  std::size_t nameHash = 0;
+  int hops = 0;
+  static std::size_t hash(const std::string& name) { return std::hash<std::string>{}(name); }
+  static ToldRoute of(const wire::RouteEntry& e) { return {e.incarnation, hash(e.name), e.hops}; }
+};
 
 std::string endpointText(const tcp::endpoint& e) {
   return e.address().to_string() + ":" + std::to_string(e.port());
@@ -249,7 +263,7 @@ class Network::Impl {
   std::vector<std::weak_ptr<Link>> explicitLinks_;
   std::map<PeisId, Route> routes_;
   // What each linked PEIS told us it can reach (applied as deltas).
-  std::map<PeisId, std::map<PeisId, wire::RouteEntry>> adverts_;
+  std::map<PeisId, boost::container::flat_map<PeisId, wire::RouteEntry>> adverts_;
   std::set<PeisId> dirty_;           // ids whose route recompute() must re-evaluate
   std::set<PeisId> advertDirty_;     // ids whose route changed since the last advert
   std::uint64_t collisionSeen_ = 0;  // a neighbour advertised our id with another incarnation
@@ -342,8 +356,10 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   SteadyClock::time_point lastHeard_;
   SteadyClock::time_point lastSent_;
   SteadyClock::time_point establishedAt_;
-  std::map<PeisId, wire::RouteEntry> told_;  // the routes this peer last heard from us
-  bool toldAll_ = false;                     // it got our whole table once
+  // The routes this peer last heard from us, compactly (a name by its hash):
+  // a PEIS among 200 keeps one per route per link.
+  boost::container::flat_map<PeisId, ToldRoute> told_;
+  bool toldAll_ = false;  // it got our whole table once
   int malformed_ = 0;
   bool closed_ = false;
   // The last source whose frames passed onRouted's checks on this link, and
@@ -436,6 +452,9 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
             return self->close(ec == asio::error::eof ? "closed by peer" : ec.message());
           }
           self->lastHeard_ = SteadyClock::now();
+          if (n == self->inCapacity_ - self->inEnd_) {  // filled: more is likely waiting
+            self->readRoom_ = std::min(2 * self->readRoom_, kMaxReadRoom);
+          }
           self->inEnd_ += n;
           self->parse();
           self->net_.flushInbox();
@@ -443,11 +462,11 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
         });
   }
 
-  // Room after inEnd_ for kReadChunk bytes, or for the rest of a frame whose
+  // Room after inEnd_ for readRoom_ bytes, or for the rest of a frame whose
   // length is known to be bigger, so a big frame arrives in place.
   void makeReadRoom() {
     const std::size_t pending = inEnd_ - inPos_;
-    std::size_t want = kReadChunk;
+    std::size_t want = readRoom_;
     if (pending >= wire::kFrameHeaderBytes) {
       const auto frame =
           wire::kFrameHeaderBytes + wire::frameLength(std::string_view(in_.get() + inPos_, 4));
@@ -498,6 +517,7 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
 
   std::unique_ptr<char[]> in_;
   std::size_t inCapacity_ = 0;
+  std::size_t readRoom_ = kFirstReadRoom;
   std::size_t inPos_ = 0, inEnd_ = 0;
   // Frames waiting to be written: bytes, then (when set) a tuple's data,
   // which is the end of the frame those bytes begin.
@@ -947,7 +967,7 @@ void Network::Impl::tellRoute(Link& link, PeisId id) {
   const auto& r = route->second;
   if (r.hops > 0 && r.nextHop == link.peer_.id) return;  // split horizon
   wire::RouteEntry entry{id, static_cast<std::uint8_t>(r.hops), r.incarnation, r.name};
-  link.told_.emplace(id, entry);
+  link.told_.insert_or_assign(id, ToldRoute::of(entry));
   wire::Routes one;
   one.entries.push_back(std::move(entry));
   std::string out;
@@ -1013,7 +1033,7 @@ void Network::Impl::recompute() {
   if (dirty_.empty()) return retryHeld();
   struct Neighbour {
     const wire::Hello* peer;
-    const std::map<PeisId, wire::RouteEntry>* advert;
+    const boost::container::flat_map<PeisId, wire::RouteEntry>* advert;
   };
   std::vector<Neighbour> neighbours;
   neighbours.reserve(links_.size());
@@ -1138,15 +1158,16 @@ void Network::Impl::advertise() {
       }
       const auto& route = r->second;
       if (t != told.end() && t->second.hops == route.hops &&
-          t->second.incarnation == route.incarnation && t->second.name == route.name) {
+          t->second.incarnation == route.incarnation &&
+          t->second.nameHash == ToldRoute::hash(route.name)) {
         continue;
       }
       wire::RouteEntry entry{id, static_cast<std::uint8_t>(route.hops), route.incarnation,
                              route.name};
       if (t == told.end()) {
-        told.emplace(id, entry);
+        told.emplace(id, ToldRoute::of(entry));
       } else {
-        t->second = entry;
+        t->second = ToldRoute::of(entry);
       }
       delta.entries.push_back(std::move(entry));
     }
@@ -1168,7 +1189,7 @@ void Network::Impl::advertiseAll(Link& link) {
     if (route.hops > 0 && route.nextHop == peer) continue;  // split horizon
     wire::RouteEntry entry{id, static_cast<std::uint8_t>(route.hops), route.incarnation,
                            route.name};
-    told.emplace_hint(told.end(), id, entry);
+    told.emplace_hint(told.end(), id, ToldRoute::of(entry));
     all.entries.push_back(std::move(entry));
   }
   if (all.entries.empty()) return;
