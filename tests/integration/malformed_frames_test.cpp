@@ -200,3 +200,41 @@ TEST_CASE("a live PEIS survives a corpus of malformed frames and keeps serving",
   CHECK(stats.idCollisions > stats0.idCollisions);
   CHECK(owner.callbackErrors() == 0);
 }
+
+// One read holds: a frame from an unknown source (held until its route
+// comes), a Routes frame (a recompute is now pending), and a frame from
+// another unknown source, whose check runs the pending recompute, which
+// delivers the held frames. The frame being checked must stay out of that
+// delivery (it once crashed the PEIS: found in review).
+TEST_CASE("a held frame, a route advert and another unknown source in one read",
+          "[integration][fault]") {
+  const auto ecology = ecologyName() + "-nested";
+  peis::Options options;
+  options.id = 7001;
+  options.ecology = ecology;
+  options.discovery = false;
+  peis::Kernel owner(options);
+  auto hasPeer = [&](peis::PeisId id) {
+    for (const auto& p : owner.peers()) {
+      if (p.id == id) return true;
+    }
+    return false;
+  };
+  const int fd = connectTo(owner.port());
+  sendAll(fd, hello(ecology, 7100));
+  REQUIRE(waitFor([&] { return hasPeer(7100); }));
+  peis::wire::Routes routes;
+  routes.entries.push_back(peis::wire::RouteEntry{7300, 0, 5, "z"});
+  const std::string burst =
+      frame(peis::wire::RoutedMessage{peis::wire::Envelope{7200, 7001, 5},  // held
+                                      peis::wire::Unsubscribe{1}}) +
+      frame(peis::wire::LinkMessage{routes}) +  // a recompute is pending
+      frame(peis::wire::RoutedMessage{peis::wire::Envelope{7400, 7001, 5},  // runs it
+                                      peis::wire::Unsubscribe{2}});
+  sendAll(fd, burst);
+  // The advert was applied, and the PEIS still serves.
+  CHECK(waitFor([&] { return hasPeer(7300); }));
+  owner.set("x", "1");
+  CHECK(owner.get(7001, "x"));
+  close(fd);
+}

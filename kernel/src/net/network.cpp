@@ -58,8 +58,8 @@ constexpr std::chrono::milliseconds kRecomputeDelay{20};  // recomputes at most 
 constexpr std::chrono::seconds kHoldFor{3};  // how long a frame waits for its source's route
 constexpr std::size_t kMaxHeldFrames = 1024;
 constexpr std::chrono::milliseconds kDialMaxDelay{1000};
-constexpr int kMaxBeaconBackoff = 8;  // beacon period at most 8x the configured one
-constexpr int kBeaconQuorum = 3;      // beacons heard that make a stable PEIS skip its own
+constexpr int kMaxBeaconBackoff = 8;      // beacon period at most 8x the configured one
+constexpr std::size_t kBeaconQuorum = 3;  // beacons heard that make a stable PEIS skip its own
 
 // What a link's peer last heard from us about one route (for deltas).
 struct ToldRoute {
@@ -256,7 +256,9 @@ class Network::Impl {
   Throttle recomputeThrottle_{io_}, advertThrottle_{io_};
   SteadyClock::time_point membershipChanged_;
   std::chrono::milliseconds beaconInterval_{0};  // the current beacon period
-  int beaconsHeard_ = 0;                         // broadcast beacons of others since our last one
+  // Distinct PEIS whose broadcast beacons we heard since our last one (up to
+  // the quorum).
+  std::vector<PeisId> beaconsHeardFrom_;
   SteadyClock::time_point beaconDue_;
   SteadyClock::time_point dialsFirstAsked_;
   std::vector<std::shared_ptr<Link>> links_;
@@ -843,7 +845,14 @@ void Network::Impl::onRouted(const std::shared_ptr<Link>& link, std::string_view
   // stream of frames from one source skips them while nothing changed.
   if (link->checkedSource_ != envelope.source || link->checkedEpoch_ != routesEpoch_) {
     // Its route may sit in an advert whose recompute is still pending.
-    if (!routes_.count(envelope.source) && recomputeThrottle_.scheduled) recompute();
+    if (!routes_.count(envelope.source) && recomputeThrottle_.scheduled) {
+      // recompute() may hand the inbox to the Kernel (retryHeld delivers
+      // held frames): keep this message, not yet checked, out of it.
+      auto message = std::move(inbox_.back());
+      inbox_.pop_back();
+      recompute();
+      inbox_.push_back(std::move(message));
+    }
     // A linked PEIS sends its own frames over its own link, so a frame
     // claiming its id from another link is spoofed, unless that link's PEIS
     // advertised a route to it: then it relays frames sent while routes were
@@ -1248,14 +1257,14 @@ void Network::Impl::beaconLoop() {
   // each PEIS then receives a few beacons a period instead of one from every
   // PEIS. After a change nobody skips, so a newcomer hears everybody.
   const bool stable = now - membershipChanged_ >= beaconInterval_;
-  if (!stable || beaconsHeard_ < kBeaconQuorum) {
+  if (!stable || beaconsHeardFrom_.size() < kBeaconQuorum) {
     for (const auto& address : broadcastAddresses(config_.discovery)) {
       sendBeacon(udp::endpoint(address, config_.discoveryPort), true);
     }
   } else {
     ++counters_.beaconsSuppressed;
   }
-  beaconsHeard_ = 0;
+  beaconsHeardFrom_.clear();
   // Forget beacon peers that went quiet.
   // A PEIS still reachable by route is alive even if its beacons are late
   // (a loaded host): forgetting it would reshape the overlay for nothing.
@@ -1332,7 +1341,11 @@ void Network::Impl::onBeacon(const Beacon& beacon, const udp::endpoint& from) {
     }
     return;
   }
-  if (beacon.wantsAnswer) ++beaconsHeard_;
+  if (beacon.wantsAnswer && beaconsHeardFrom_.size() < kBeaconQuorum &&
+      std::find(beaconsHeardFrom_.begin(), beaconsHeardFrom_.end(), beacon.id) ==
+          beaconsHeardFrom_.end()) {
+    beaconsHeardFrom_.push_back(beacon.id);  // distinct PEIS: one heard twice is one
+  }
   auto [it, isNew] = beaconPeers_.try_emplace(beacon.id);
   isNew = isNew || it->second.incarnation != beacon.incarnation;
   if (isNew) membershipChanged(SteadyClock::now());
