@@ -653,6 +653,7 @@ struct Kernel::Impl {
       networkStopped = true;
     }
     retryTimer.cancel();
+    flushTimer.cancel();
     auto requests = pendingWrites;
     for (const auto& [request, pending] : requests) {
       completeWrite(request, Error(ErrorCode::Stopped, "the kernel is shutting down"), 0);
