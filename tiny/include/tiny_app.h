@@ -43,6 +43,16 @@ void tiny_port_report(const char *event, long value);
 /* Reads a sensor channel (TINY_SENSOR_*). */
 long tiny_port_sensor(uint8_t channel);
 
+/* The node id a port uses: TINY_NODE_ID when the build sets it, else the
+ * program's app_default_id(). */
+static inline uint16_t tiny_port_node_id(void) {
+#ifdef TINY_NODE_ID
+  return TINY_NODE_ID;
+#else
+  return app_default_id();
+#endif
+}
+
 /* ---- helpers for device programs (tiny_app.c) -------------------------- */
 /* Writes v as ASCII decimal into buf (cap >= 12); returns the length. */
 uint8_t tiny_format_long(long v, char *buf, uint8_t cap);

@@ -78,10 +78,7 @@ class Writer {
     u16(static_cast<std::uint16_t>(std::min<std::size_t>(s.size(), 65535)));
     out_.append(s.substr(0, 65535));
   }
-  void bytes32(std::string_view s) {
-    u32(static_cast<std::uint32_t>(s.size()));
-    out_.append(s);
-  }
+  void raw(std::string_view s) { out_.append(s); }
 
  private:
   // The low `n` bytes of `v`, most significant first, in one append.
@@ -113,9 +110,9 @@ class RawWriter {
     u16(static_cast<std::uint16_t>(s.size()));
     raw(s);
   }
-  void bytes32(std::string_view s) {
-    u32(static_cast<std::uint32_t>(s.size()));
-    raw(s);
+  void raw(std::string_view s) {
+    if (!s.empty()) std::memcpy(p_, s.data(), s.size());
+    p_ += s.size();
   }
   char* at() const { return p_; }
 
@@ -123,10 +120,6 @@ class RawWriter {
   void put(std::uint64_t v, int n) {
     writeBigEndian(p_, v, n);
     p_ += n;
-  }
-  void raw(std::string_view s) {
-    if (!s.empty()) std::memcpy(p_, s.data(), s.size());
-    p_ += s.size();
   }
   char* p_;
 };
@@ -226,16 +219,8 @@ void writeTupleHead(W& w, const Tuple& t) {
 
 template <typename W>
 void writeTuple(W& w, const Tuple& t) {
-  w.i32(t.owner);
-  w.i32(t.creator);
-  w.str16(t.key);
-  w.str8(t.mimetype);
-  w.u8(static_cast<std::uint8_t>(t.encoding));
-  w.i64(micros(t.ts_write));
-  w.i64(micros(t.ts_user));
-  w.i64(micros(t.ts_expire));
-  w.u64(t.seqno);
-  w.bytes32(t.data);
+  writeTupleHead(w, t);
+  w.raw(t.data);
 }
 
 void checkKey(Reader& r, const std::string& key, const char* what) {

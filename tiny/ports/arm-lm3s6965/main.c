@@ -130,11 +130,7 @@ static void semihosting_exit(void) {
 
 int main(void) {
   tiny_hal hal;
-#ifdef TINY_NODE_ID
-  uint16_t id = TINY_NODE_ID;
-#else
-  uint16_t id = app_default_id();
-#endif
+  uint16_t id = tiny_port_node_id();
   SYST_RVR = TINY_ARM_CPU_HZ / 1000u - 1u;
   SYST_CVR = 0;
   SYST_CSR = 7u; /* core clock, interrupt, enable */

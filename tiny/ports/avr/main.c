@@ -83,11 +83,7 @@ long tiny_port_sensor(uint8_t channel) {
 
 int main(void) {
   tiny_hal hal;
-#ifdef TINY_NODE_ID
-  uint16_t id = TINY_NODE_ID;
-#else
-  uint16_t id = app_default_id();
-#endif
+  uint16_t id = tiny_port_node_id();
   cli();
   TINY_AVR_LED_DDR |= (uint8_t)(1 << TINY_AVR_LED_BIT);
   clock_init();
