@@ -7,6 +7,7 @@
 // input at sensor B, the lamp follows. At the end sensor B is told to quit
 // through its kernel.do-quit tuple. Every timeline line comes from a real
 // callback. Exits 0 when the goal is met, 1 otherwise.
+#include <peis/component.h>
 #include <peis/peis.h>
 #include <signal.h>
 #include <sys/prctl.h>

@@ -1,5 +1,5 @@
 // A lamp component: one input (mi-brightness) and one actuator (light).
-#include <peis/peis.h>
+#include <peis/component.h>
 
 #include <iostream>
 

@@ -92,7 +92,6 @@ std::string userName() {
 
 }  // namespace
 
-std::string metaInputKey(std::string_view input) { return "mi-" + std::string(input); }
 const char* versionString() { return "0.1.0"; }
 
 struct Kernel::Impl {

@@ -75,8 +75,6 @@ inline constexpr const char* kPort = "kernel.port";
 inline constexpr const char* kStarted = "kernel.started";
 }  // namespace special
 
-// "position" -> "mi-position": the meta tuple of a component input.
-std::string metaInputKey(std::string_view input);
 const char* versionString();
 
 class Kernel {

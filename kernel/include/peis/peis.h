@@ -1,8 +1,8 @@
-// The whole public API of the PEIS-kernel in one include.
+// The whole public API of the PEIS-kernel in one include. The component
+// conventions (Component, Descriptor) are the component library's:
+// <peis/component.h>.
 #pragma once
 
-#include "peis/component.h"
-#include "peis/descriptor.h"
 #include "peis/error.h"
 #include "peis/kernel.h"
 #include "peis/key.h"

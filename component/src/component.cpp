@@ -84,8 +84,8 @@ struct Component::State {
     std::string causes;
     const auto status = compute(causes);
     if (published == status && publishedCauses == causes) return;
-    kernel->set("cause.names", causes);
-    kernel->set("status", toString(status));
+    kernel->set(conventions::kCauseNames, causes);
+    kernel->set(conventions::kStatus, toString(status));
     published = status;
     publishedCauses = causes;
   }
@@ -96,7 +96,7 @@ Component::Component(Kernel& kernel, std::string name)
   validateName(name);
   state_->kernel = &kernel;
   state_->name = std::move(name);
-  kernel_.set("component.name", state_->name);
+  kernel_.set(conventions::kComponentName, state_->name);
   std::lock_guard lock(state_->mu);
   state_->publish();
 }
@@ -121,18 +121,18 @@ Component::~Component() {
 void Component::publishDescriptor(const Descriptor& descriptor) {
   std::string names;
   for (const auto& f : descriptor.functionalities) {
-    const auto prefix = "functionality." + f.name + ".";
-    kernel_.set(prefix + "inputs", formatPorts(f.inputs));
-    kernel_.set(prefix + "outputs", formatPorts(f.outputs));
-    kernel_.set(prefix + "preconditions", joined(f.preconditions));
-    kernel_.set(prefix + "cost", std::to_string(f.cost));
-    if (!f.description.empty()) kernel_.set(prefix + "description", f.description);
+    using conventions::functionalityKey;
+    kernel_.set(functionalityKey(f.name, "inputs"), formatPorts(f.inputs));
+    kernel_.set(functionalityKey(f.name, "outputs"), formatPorts(f.outputs));
+    kernel_.set(functionalityKey(f.name, "preconditions"), joined(f.preconditions));
+    kernel_.set(functionalityKey(f.name, "cost"), std::to_string(f.cost));
+    if (!f.description.empty()) kernel_.set(functionalityKey(f.name, "description"), f.description);
     names += (names.empty() ? "" : " ") + f.name;
   }
-  kernel_.set("functionalities", names);
+  kernel_.set(conventions::kFunctionalities, names);
   WriteOptions yaml;
   yaml.mimetype = "application/yaml";
-  kernel_.set("component.descriptor", descriptor.toYaml(), yaml);
+  kernel_.set(conventions::kComponentDescriptor, descriptor.toYaml(), yaml);
 }
 
 void Component::input(const std::string& name, std::chrono::milliseconds freshness,
@@ -200,7 +200,7 @@ bool Component::inputFresh(const std::string& name) const {
 }
 
 void Component::actuator(const std::string& name, Apply apply, std::string initialState) {
-  const auto reqKey = name + ".reqState";
+  const auto reqKey = conventions::reqStateKey(name);
   validateKey(reqKey);
   {
     std::lock_guard lock(state_->mu);
@@ -209,25 +209,27 @@ void Component::actuator(const std::string& name, Apply apply, std::string initi
     }
     state_->actuators[name] = std::move(apply);
   }
-  kernel_.set(name + ".currState", std::move(initialState));
-  kernel_.set(name + ".status", "ok");
+  kernel_.set(conventions::currStateKey(name), std::move(initialState));
+  kernel_.set(conventions::actuatorStatusKey(name), std::string(conventions::kActuatorOk));
   auto state = state_;
-  auto handle =
-      kernel_.onChange(Pattern::exact(kernel_.id(), reqKey), [state, name](const Tuple& t) {
-        Apply fn;
-        {
-          std::lock_guard lock(state->mu);
-          fn = state->actuators[name];
-        }
-        state->kernel->set(name + ".status", "busy");
-        try {
-          auto reached = fn(t.data);
-          state->kernel->set(name + ".currState", std::move(reached));
-          state->kernel->set(name + ".status", "ok");
-        } catch (const std::exception& e) {
-          state->kernel->set(name + ".status", std::string("error: ") + e.what());
-        }
-      });
+  auto handle = kernel_.onChange(Pattern::exact(kernel_.id(), reqKey), [state,
+                                                                        name](const Tuple& t) {
+    Apply fn;
+    {
+      std::lock_guard lock(state->mu);
+      fn = state->actuators[name];
+    }
+    state->kernel->set(conventions::actuatorStatusKey(name),
+                       std::string(conventions::kActuatorBusy));
+    try {
+      auto reached = fn(t.data);
+      state->kernel->set(conventions::currStateKey(name), std::move(reached));
+      state->kernel->set(conventions::actuatorStatusKey(name),
+                         std::string(conventions::kActuatorOk));
+    } catch (const std::exception& e) {
+      state->kernel->set(conventions::actuatorStatusKey(name), std::string("error: ") + e.what());
+    }
+  });
   std::lock_guard lock(state_->mu);
   state_->callbacks.push_back(handle);
   // A request that was there before the actuator existed (--peis-set-tuple).
@@ -238,8 +240,8 @@ void Component::actuator(const std::string& name, Apply apply, std::string initi
 
 void Component::setActuatorState(const std::string& name, std::string currState,
                                  std::string status) {
-  kernel_.set(name + ".currState", std::move(currState));
-  kernel_.set(name + ".status", std::move(status));
+  kernel_.set(conventions::currStateKey(name), std::move(currState));
+  kernel_.set(conventions::actuatorStatusKey(name), std::move(status));
 }
 
 void Component::start() {

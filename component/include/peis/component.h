@@ -1,6 +1,8 @@
 // Component: a helper that implements the component conventions every
 // PEIS-component follows so the meta-level can plan with it and watch it
-// (docs/components.md):
+// (docs/components.md; the key names are in peis/conventions.h). Part of the
+// component library (peis::component), written against the kernel's public
+// API only:
 //   status       initializing | waiting | running | error
 //   cause.names  the inputs that are missing or stale while waiting (or the
 //                error's cause), space-separated
@@ -16,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "peis/conventions.h"
 #include "peis/descriptor.h"
 #include "peis/kernel.h"
 
