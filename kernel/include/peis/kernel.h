@@ -50,6 +50,7 @@ struct PeerInfo {
   std::string name;
   int hops = 0;  // 0: this PEIS, 1: a direct link
   std::uint64_t incarnation = 0;
+  bool tool = false;  // started with Options::tool (e.g. a `peis` command)
 };
 
 // Counters of the network layer (docs/protocol.md says what each counts).

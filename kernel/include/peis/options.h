@@ -28,8 +28,9 @@ struct Options {
   std::chrono::milliseconds writeTimeout{5000};       // a remote write's deadline
   std::chrono::milliseconds subscriptionLease{6000};  // renewed every third of it
   bool network = true;                                // false: a PEIS on its own, no sockets at all
-  bool help = false;                                  // --help or -h was given (left in argv)
-  std::string programName;                            // basename of argv[0]
+  bool tool = false;  // a short-lived tool PEIS (the `peis` CLI): peers list it as PeerInfo::tool
+  bool help = false;  // --help or -h was given (left in argv)
+  std::string programName;  // basename of argv[0]
 
   // Parses and removes the --peis-* flags from argv (argc is updated).
   // Throws Error(InvalidArgument) naming the flag and what is wrong.
