@@ -1,9 +1,10 @@
 // Network: the P2P layer of one PEIS. It discovers other PEIS of the same
-// ecology (UDP beacons), keeps TCP links to some of them (handshake, pings,
-// liveness), maintains a distance-vector routing table so every PEIS reaches
-// every other one over several hops, and delivers routed frames. It knows
-// frames, not what tuples mean. Everything runs on the kernel's io_context
-// thread; no method may be called from another thread.
+// ecology (Discovery), keeps TCP links to some of them (Link, the handshake,
+// pings and liveness, the link policy), keeps a distance-vector routing table
+// so every PEIS reaches every other one over several hops (RoutingTable), and
+// delivers and forwards routed frames. It knows frames, not what tuples mean.
+// Everything runs on the kernel's io_context thread; no method may be called
+// from another thread. network.cpp is the glue between those parts.
 #pragma once
 
 #include <boost/asio/io_context.hpp>
@@ -15,12 +16,12 @@
 #include <string>
 #include <vector>
 
+#include "net/counters.h"
+#include "net/discovery.h"
 #include "net/wire.h"
 #include "peis/types.h"
 
 namespace peis::net {
-
-enum class DiscoveryScope { Off, Loopback, Lan };
 
 struct NetworkConfig {
   std::string ecology = "default";
@@ -51,19 +52,6 @@ struct LinkInfo {
   std::string remote;  // address:port
   bool outbound = false;
   std::size_t backlogBytes = 0;
-};
-
-struct Counters {
-  std::uint64_t framesIn = 0;
-  std::uint64_t framesOut = 0;
-  std::uint64_t malformedFrames = 0;
-  std::uint64_t garbagePeersDisconnected = 0;
-  std::uint64_t foreignEcologyRejected = 0;
-  std::uint64_t unroutable = 0;
-  std::uint64_t coalesced = 0;
-  std::uint64_t idCollisions = 0;
-  std::uint64_t malformedBeacons = 0;
-  std::uint64_t beaconsSuppressed = 0;  // periodic beacons skipped (docs/protocol.md §6)
 };
 
 class Network {
@@ -121,7 +109,5 @@ class Network {
   class Impl;
   std::unique_ptr<Impl> impl_;
 };
-
-DiscoveryScope parseDiscoveryScope(std::string_view text);
 
 }  // namespace peis::net
