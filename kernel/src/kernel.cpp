@@ -10,6 +10,7 @@
 #include <boost/asio/post.hpp>
 #include <boost/asio/signal_set.hpp>
 #include <cstdlib>
+#include <future>
 #include <iostream>
 #include <random>
 
@@ -20,6 +21,9 @@ namespace peis {
 namespace asio = boost::asio;
 
 namespace {
+
+// How long the destructor waits for the links to send what they hold.
+constexpr std::chrono::milliseconds kLeaveGrace{500};
 
 PeisId pickId(const Options& options) {
   if (options.id) return *options.id;
@@ -75,7 +79,14 @@ Options parseOrExit(int& argc, char** argv) {
 Kernel::Kernel(int& argc, char** argv) : Kernel(parseOrExit(argc, argv)) {}
 
 Kernel::~Kernel() {
-  impl_->onKernelThreadAndWait([impl = impl_.get()] { impl->stopNetwork(); });
+  // The Leave frames and whatever the links still hold get a moment to go
+  // out (a PEIS that quits cleanly vanishes from every table at once); a
+  // link that takes longer is dropped with the io_context.
+  auto closed = std::make_shared<std::promise<void>>();
+  auto linksClosed = closed->get_future();
+  impl_->onKernelThreadAndWait(
+      [impl = impl_.get(), closed] { impl->stopNetwork([closed] { closed->set_value(); }); });
+  linksClosed.wait_for(kLeaveGrace);
   impl_->timers.stopAll();
   impl_->work.reset();
   impl_->io.stop();
@@ -197,7 +208,9 @@ bool Kernel::unsubscribe(SubscriptionHandle handle) {
 
 std::vector<PeerInfo> Kernel::peers() const {
   MutexLock lock(impl_->mu);
-  if (impl_->peerSnapshot.empty()) return {PeerInfo{id(), impl_->name, 0, impl_->incarnation}};
+  if (impl_->peerSnapshot.empty()) {
+    return {PeerInfo{id(), impl_->name, 0, impl_->incarnation, impl_->options.tool}};
+  }
   return impl_->peerSnapshot;
 }
 

@@ -35,6 +35,7 @@ void Kernel::Impl::startNetwork() {  // kernel thread
   config.deadAfter = options.liveness;
   config.pingPeriod = std::max(options.liveness / 4, std::chrono::milliseconds(25));
   config.maxDataBytes = options.maxDataBytes;
+  config.tool = options.tool;
   net::Network::Events events;
   events.onMessages = [this](std::vector<wire::RoutedMessage>&& m) { onMessages(std::move(m)); };
   events.onPeerUp = [this](const net::PeerInfo& p) { onPeerUp(p); };
@@ -50,7 +51,7 @@ void Kernel::Impl::startNetwork() {  // kernel thread
   leaseLoop();
 }
 
-void Kernel::Impl::stopNetwork() {  // kernel thread
+void Kernel::Impl::stopNetwork(std::function<void()> closed) {  // kernel thread
   leaseTimer.cancel();
   {
     MutexLock lock(mu);
@@ -59,13 +60,17 @@ void Kernel::Impl::stopNetwork() {  // kernel thread
   retryTimer.cancel();
   flushTimer.cancel();
   remoteWrites.failAll(Error(ErrorCode::Stopped, "the kernel is shutting down"));
-  if (network) network->stop();
+  if (network) {
+    network->stop(std::move(closed));
+  } else if (closed) {
+    closed();
+  }
 }
 
 void Kernel::Impl::snapshotPeers() {
   peerSnapshot.clear();
   for (const auto& peer : network->peers()) {
-    peerSnapshot.push_back(PeerInfo{peer.id, peer.name, peer.hops, peer.incarnation});
+    peerSnapshot.push_back(PeerInfo{peer.id, peer.name, peer.hops, peer.incarnation, peer.tool});
   }
 }
 

@@ -66,7 +66,7 @@ std::string frame(const peis::wire::RoutedMessage& message) {
   return peis::wire::encodeFrame(message);
 }
 
-std::string hello(const std::string& ecology, peis::PeisId id, std::uint16_t version = 1) {
+std::string hello(const std::string& ecology, peis::PeisId id, std::uint16_t version = peis::wire::kVersion) {
   peis::wire::Hello h;
   h.version = version;
   h.ecology = ecology;
@@ -224,7 +224,7 @@ TEST_CASE("a held frame, a route advert and another unknown source in one read",
   sendAll(fd, hello(ecology, 7100));
   REQUIRE(waitFor([&] { return hasPeer(7100); }));
   peis::wire::Routes routes;
-  routes.entries.push_back(peis::wire::RouteEntry{7300, 0, 5, "z"});
+  routes.entries.push_back(peis::wire::RouteEntry{7300, 1, 0, 5, 0, "z"});
   const std::string burst =
       frame(peis::wire::RoutedMessage{peis::wire::Envelope{7200, 7001, 5},  // held
                                       peis::wire::Unsubscribe{1}}) +

@@ -101,7 +101,9 @@ void Discovery::setSelf(PeisId self) {
 
 std::vector<PeisId> Discovery::sortedIds() const {
   std::vector<PeisId> ids{self_};
-  for (const auto& [id, peer] : peers_) ids.push_back(id);
+  for (const auto& [id, peer] : peers_) {
+    if (!peer.tool) ids.push_back(id);
+  }
   std::sort(ids.begin(), ids.end());
   return ids;
 }
@@ -133,8 +135,9 @@ void Discovery::beaconLoop() {
   for (auto it = peers_.begin(); it != peers_.end();) {
     const bool quiet = now - it->second.lastSeen > config_.beaconPeriod * kQuietPeriods;
     if (quiet && !(events_.reachable && events_.reachable(it->first))) {
+      const bool tool = it->second.tool;
       it = peers_.erase(it);
-      membershipChanged(now);
+      if (!tool) membershipChanged(now);
     } else {
       ++it;
     }
@@ -170,7 +173,7 @@ void Discovery::membershipChanged(SteadyClock::time_point now) {
 }
 
 void Discovery::send(const udp::endpoint& to, bool wantsAnswer) {
-  Beacon beacon{config_.ecology, self_, incarnation_, tcpPort_, wantsAnswer};
+  Beacon beacon{config_.ecology, self_, incarnation_, tcpPort_, wantsAnswer, config_.tool};
   auto payload = std::make_shared<std::string>(encodeBeacon(beacon));
   udp_.async_send_to(asio::buffer(*payload), to,
                      [payload](const boost::system::error_code&, std::size_t) {});
@@ -201,6 +204,7 @@ void Discovery::onBeacon(const Beacon& beacon, const udp::endpoint& from) {
     }
     return;
   }
+  if (beacon.tool) return onToolBeacon(beacon, from);
   if (beacon.wantsAnswer && heardFrom_.size() < kBeaconQuorum &&
       std::find(heardFrom_.begin(), heardFrom_.end(), beacon.id) == heardFrom_.end()) {
     heardFrom_.push_back(beacon.id);  // distinct PEIS: one heard twice is one
@@ -215,8 +219,24 @@ void Discovery::onBeacon(const Beacon& beacon, const udp::endpoint& from) {
   // neighbours now, the others from their next beacon, which the change
   // brings within a beacon period. N answers to each of N joining PEIS were
   // most of the beacon traffic of a join storm.
-  if (beacon.wantsAnswer && overlayWantsSorted(sortedIds(), self_, beacon.id)) send(from, false);
+  if (beacon.wantsAnswer && !config_.tool && overlayWantsSorted(sortedIds(), self_, beacon.id)) {
+    send(from, false);
+  }
   if (events_.onNewPeer) events_.onNewPeer(beacon.id);
+}
+
+// A tool PEIS is remembered (its address, should it be looked up) and
+// answered if it would link with us, as if it joined the overlay; it changes
+// nothing else. A tool ignores other tools.
+void Discovery::onToolBeacon(const Beacon& beacon, const udp::endpoint& from) {
+  if (config_.tool) return;
+  auto [it, isNew] = peers_.try_emplace(beacon.id);
+  isNew = isNew || it->second.incarnation != beacon.incarnation;
+  it->second = Peer{from.address(), beacon.port, beacon.incarnation, SteadyClock::now(), true};
+  if (!isNew || !beacon.wantsAnswer) return;
+  auto ids = sortedIds();
+  ids.insert(std::lower_bound(ids.begin(), ids.end(), beacon.id), beacon.id);
+  if (overlayWantsSorted(ids, self_, beacon.id)) send(from, false);
 }
 
 }  // namespace peis::net

@@ -4,7 +4,9 @@
 // others), answers newcomers it should link with, and remembers the PEIS of
 // its ecology it heard (address, TCP port, incarnation) until they go quiet.
 // Whom to dial and which links to prune is decided by the Network from what
-// Discovery knows (net/link_policy.h). Kernel thread only.
+// Discovery knows (net/link_policy.h). A tool PEIS (the `peis` command) is
+// heard but left out of the overlay and of the membership: its coming and
+// going changes no other PEIS's links or beacon period. Kernel thread only.
 #pragma once
 
 #include <array>
@@ -32,12 +34,14 @@ class Discovery {
     DiscoveryScope scope = DiscoveryScope::Lan;
     std::uint16_t port = 7700;  // UDP port of the beacons
     std::chrono::milliseconds beaconPeriod{1000};
+    bool tool = false;  // this PEIS is a tool (its beacons say so)
   };
   struct Peer {
     boost::asio::ip::address address;
     std::uint16_t port = 0;  // TCP
     std::uint64_t incarnation = 0;
     SteadyClock::time_point lastSeen;
+    bool tool = false;  // a tool PEIS: outside the overlay
   };
   struct Events {
     // A PEIS not known before, or known with another incarnation.
@@ -65,7 +69,7 @@ class Discovery {
   // answers).
   void setSelf(PeisId self);
 
-  // The known PEIS and this one, ascending (the overlay's input).
+  // The known PEIS but tools, and this one, ascending (the overlay's input).
   std::vector<PeisId> sortedIds() const;
   const Peer* peer(PeisId id) const;
   bool knows(PeisId id) const { return peers_.count(id) != 0; }
@@ -78,6 +82,7 @@ class Discovery {
   void send(const boost::asio::ip::udp::endpoint& to, bool wantsAnswer);
   void receive();
   void onBeacon(const Beacon& beacon, const boost::asio::ip::udp::endpoint& from);
+  void onToolBeacon(const Beacon& beacon, const boost::asio::ip::udp::endpoint& from);
 
   boost::asio::io_context& io_;
   Config config_;

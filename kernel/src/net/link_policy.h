@@ -17,10 +17,12 @@ namespace peis::net {
 inline constexpr std::chrono::seconds kLinkGrace{2};
 
 // The overlay peers of `self` that it dials: those with a higher id (of a
-// wanted pair only the lower id dials) it is neither linked to nor dialling.
-// `sortedIds`: the known PEIS and `self`, ascending.
+// wanted pair only the lower id dials; with `all`, as a tool does, every
+// one) it is neither linked to nor dialling. `sortedIds`: the known PEIS and
+// `self`, ascending.
 std::vector<PeisId> peersToDial(const std::vector<PeisId>& sortedIds, PeisId self,
-                                const std::function<bool(PeisId)>& linkedOrDialing);
+                                const std::function<bool(PeisId)>& linkedOrDialing,
+                                bool all = false);
 
 struct PruneQuestion {
   PeisId peer = 0;
@@ -28,10 +30,11 @@ struct PruneQuestion {
   bool knownByBeacon = true;
   std::chrono::steady_clock::duration age{};  // since the link was established
   bool alternative = false;                   // another linked PEIS advertises a route to peer
+  bool peerIsTool = false;                    // a tool's links are never pruned: it is short-lived
 };
 // Whether `self` closes its link to `question.peer`: it is the lower id, the
-// overlay no longer wants the pair, the link is old enough and the peer stays
-// reachable through another neighbour. Call only once the membership has
+// peer is no tool, the overlay no longer wants the pair, the link is old
+// enough and the peer stays reachable through another neighbour. Call only once the membership has
 // been stable for kLinkGrace.
 bool shouldPrune(const std::vector<PeisId>& sortedIds, PeisId self, const PruneQuestion& question);
 

@@ -52,10 +52,10 @@ class Network::Impl final : public LinkHandler {
         config_(std::move(config)),
         incarnation_(incarnation),
         events_(std::move(events)),
-        table_(self, incarnation, config_.name),
+        table_(tableConfig(config_, self, incarnation)),
         discovery_(io,
                    Discovery::Config{config_.ecology, config_.discovery, config_.discoveryPort,
-                                     config_.beaconPeriod},
+                                     config_.beaconPeriod, config_.tool},
                    counters_, self, incarnation, discoveryEvents()),
         acceptor_(io),
         pingTimer_(io),
@@ -63,10 +63,11 @@ class Network::Impl final : public LinkHandler {
         dialTimer_(io),
         acceptRetry_(io),
         pruneTimer_(io),
+        holdTimer_(io),
         explicitLinks_(config_.connect.size()) {}
 
   void start();
-  void stop();
+  void stop(std::function<void()> closed);
   bool send(wire::RoutedMessage message);
   bool sendUpdate(PeisId destination, std::uint64_t incarnation,
                   const std::shared_ptr<const Tuple>& tuple);
@@ -92,6 +93,8 @@ class Network::Impl final : public LinkHandler {
 
  private:
   std::size_t maxFrameBytes() const { return config_.maxDataBytes + wire::kMaxFrameOverhead; }
+  static RoutingTable::Config tableConfig(const NetworkConfig& config, PeisId self,
+                                          std::uint64_t incarnation);
   Discovery::Events discoveryEvents();
   // --- links and the handshake
   void accept();
@@ -108,6 +111,10 @@ class Network::Impl final : public LinkHandler {
   void redialLoop();
   // --- routing
   void onRoutes(Link& link, wire::Routes& routes);
+  void onLeave(Link& link, const wire::Leave& leave);
+  // Sends what the routing table asks for now, and schedules its adverts,
+  // recompute and hold deadline.
+  void afterTable();
   // Runs the routing table's recompute and reports what changed.
   void recompute();
   void scheduleRecompute();
@@ -150,7 +157,9 @@ class Network::Impl final : public LinkHandler {
   RoutingTable table_;
   Discovery discovery_;
   tcp::acceptor acceptor_;
-  asio::steady_timer pingTimer_, redialTimer_, dialTimer_, acceptRetry_, pruneTimer_;
+  asio::steady_timer pingTimer_, redialTimer_, dialTimer_, acceptRetry_, pruneTimer_, holdTimer_;
+  std::optional<SteadyClock::time_point> holdArmed_;
+  std::function<void()> closed_;  // after stop(): runs once no link is left
   bool pruneArmed_ = false;
   bool dialsPending_ = false;
   SteadyClock::time_point dialsFirstAsked_;
@@ -173,6 +182,20 @@ class Network::Impl final : public LinkHandler {
 };
 
 // --- Life cycle ------------------------------------------------------------------
+
+RoutingTable::Config Network::Impl::tableConfig(const NetworkConfig& config, PeisId self,
+                                                std::uint64_t incarnation) {
+  RoutingTable::Config c;
+  c.self = self;
+  c.incarnation = incarnation;
+  c.name = config.name;
+  c.tool = config.tool;
+  // A route with only infeasible successors waits at most half a liveness
+  // period for the destination's new seqno: a PEIS that is gone leaves
+  // every table within one liveness period.
+  c.holdFor = std::max(config.deadAfter / 2, std::chrono::milliseconds(50));
+  return c;
+}
 
 Discovery::Events Network::Impl::discoveryEvents() {
   Discovery::Events e;
@@ -208,8 +231,9 @@ void Network::Impl::start() {
   redialLoop();
 }
 
-void Network::Impl::stop() {
+void Network::Impl::stop(std::function<void()> closed) {
   stopped_ = true;
+  closed_ = std::move(closed);
   boost::system::error_code ec;
   acceptor_.close(ec);
   discovery_.stop();
@@ -220,8 +244,19 @@ void Network::Impl::stop() {
   recomputeThrottle_.timer.cancel();
   pruneTimer_.cancel();
   acceptRetry_.cancel();
+  holdTimer_.cancel();
+  // A clean leave: every PEIS forgets this one at once instead of waiting
+  // for its routes to time out (the Leave floods, docs/protocol.md §8).
   auto links = links_;
-  for (auto& link : links) link->close("shutting down");
+  for (auto& link : links) {
+    if (link->established_) {
+      sendLinkMessage(*link, wire::Leave{self_, incarnation_});
+      link->closeAfterFlush("leaving");
+    } else {
+      link->close("shutting down");
+    }
+  }
+  if (links_.empty() && closed_) std::exchange(closed_, {})();
 }
 
 // --- Links and the handshake ---------------------------------------------------------
@@ -233,7 +268,7 @@ wire::Hello Network::Impl::hello() const {
   h.incarnation = incarnation_;
   h.name = config_.name;
   h.listenPort = listenPort();
-  h.capabilities = wire::kCapabilityCoalescing;
+  h.capabilities = wire::kCapabilityCoalescing | (config_.tool ? wire::kCapabilityTool : 0);
   return h;
 }
 
@@ -296,6 +331,10 @@ void Network::Impl::onClosed(Link& link, const std::string& reason) {
                               [&](const std::shared_ptr<Link>& l) { return l.get() == &link; }),
                links_.end());
   if (link.dialTarget_ != 0) dialing_.erase(link.dialTarget_);
+  if (stopped_) {
+    if (links_.empty() && closed_) std::exchange(closed_, {})();
+    return;
+  }
   if (!link.established_) {
     log::debug(self_, "link " + link.remote_ + " closed before the handshake: " + reason);
     return;
@@ -347,6 +386,11 @@ void Network::Impl::onFrame(Link& link, std::string_view frame) {
     sendLinkMessage(link, wire::Pong{ping->nonce});
   } else if (auto* routes = std::get_if<wire::Routes>(&message)) {
     onRoutes(link, *routes);
+  } else if (auto* leave = std::get_if<wire::Leave>(&message)) {
+    onLeave(link, *leave);
+  } else if (auto* request = std::get_if<wire::SeqnoRequest>(&message)) {
+    table_.onSeqnoRequest(link.peer_.id, *request, SteadyClock::now());
+    afterTable();
   } else if (auto* taken = std::get_if<wire::IdTaken>(&message)) {
     if (taken->id == self_ && taken->incarnation == incarnation_) collision(0);
   }
@@ -498,8 +542,37 @@ bool Network::Impl::congested() {
 
 void Network::Impl::onRoutes(Link& link, wire::Routes& routes) {
   ++routesEpoch_;
+  table_.onRoutes(link.peer_.id, routes.entries);
   // Adverts arrive in bursts: recompute once per burst.
-  if (table_.onRoutes(link.peer_.id, routes.entries)) scheduleRecompute();
+  if (table_.hasWork()) scheduleRecompute();
+}
+
+void Network::Impl::onLeave(Link& link, const wire::Leave& leave) {
+  if (!table_.onLeave(link.peer_.id, leave, SteadyClock::now())) return;
+  log::debug(self_, "PEIS " + std::to_string(leave.id) + " left");
+  for (const auto& other : links_) {  // pass it on, once
+    if (other.get() != &link && other->established_) sendLinkMessage(*other, leave);
+  }
+  recompute();  // at once: it is gone for sure
+}
+
+void Network::Impl::afterTable() {
+  for (auto& m : table_.takeMessages()) {
+    if (auto* link = findLink(m.to)) sendLinkMessage(*link, m.message);
+  }
+  if (table_.hasAdverts()) scheduleAdvert();
+  if (table_.hasWork()) scheduleRecompute();
+  const auto deadline = table_.nextDeadline();
+  if (!deadline || (holdArmed_ && *holdArmed_ <= *deadline) || stopped_) return;
+  holdArmed_ = deadline;
+  holdTimer_.expires_at(*deadline);
+  holdTimer_.async_wait([this](const boost::system::error_code& ec) {
+    if (ec == asio::error::operation_aborted) return;
+    holdArmed_.reset();
+    if (stopped_) return;
+    ++routesEpoch_;
+    recompute();
+  });
 }
 
 void Network::Impl::recompute() {
@@ -509,10 +582,8 @@ void Network::Impl::recompute() {
     collision(*other);
     return;
   }
-  if (!table_.hasWork()) return retryHeld();
-  const auto changes = table_.recompute();
-  if (!changes.changed) return retryHeld();
-  scheduleAdvert();
+  const auto changes = table_.recompute(SteadyClock::now());
+  afterTable();
   retryHeld();
   for (const PeisId id : changes.down) {
     if (events_.onPeerDown) events_.onPeerDown(id);
@@ -520,9 +591,9 @@ void Network::Impl::recompute() {
   for (const PeisId id : changes.up) {
     const auto* r = table_.find(id);
     if (!r || !events_.onPeerUp) continue;
-    events_.onPeerUp(PeerInfo{id, r->name, r->incarnation, r->hops, r->nextHop});
+    events_.onPeerUp(PeerInfo{id, r->name, r->incarnation, r->hops, r->nextHop, r->tool});
   }
-  if (events_.onTopology) events_.onTopology();
+  if (changes.topology && events_.onTopology) events_.onTopology();
 }
 
 // Runs `work` once for any number of requests: right after the handlers
@@ -731,8 +802,10 @@ void Network::Impl::scheduleDials() {
 
 void Network::Impl::evaluateDials() {
   const auto ids = discovery_.sortedIds();
+  // A tool dials every overlay peer it has (no other PEIS dials a tool).
   const auto targets = peersToDial(
-      ids, self_, [this](PeisId id) { return findLink(id) != nullptr || dialing_.count(id) != 0; });
+      ids, self_, [this](PeisId id) { return findLink(id) != nullptr || dialing_.count(id) != 0; },
+      config_.tool);
   for (const PeisId target : targets) {
     const auto* peer = discovery_.peer(target);
     if (!peer) continue;
@@ -786,15 +859,20 @@ void Network::Impl::armPrune(SteadyClock::time_point at) {
 // once it has settled for a while.
 void Network::Impl::pruneLinks() {
   const auto now = SteadyClock::now();
-  // Only once the membership has settled, so both ends agree on the overlay.
-  if (now - discovery_.membershipChangedAt() < kLinkGrace) return;
+  // Only once the membership has settled, so both ends agree on the overlay;
+  // a tool, short-lived, keeps the few links it has.
+  if (config_.tool || now - discovery_.membershipChangedAt() < kLinkGrace) return;
   const auto ids = discovery_.sortedIds();
   auto links = links_;
   for (const auto& link : links) {
     if (!link->established_) continue;
     const PeisId peer = link->peer_.id;
-    const PruneQuestion question{peer, link->explicitIndex_ < 0, discovery_.knows(peer),
-                                 now - link->establishedAt_, table_.hasAlternative(peer)};
+    const PruneQuestion question{peer,
+                                 link->explicitIndex_ < 0,
+                                 discovery_.knows(peer),
+                                 now - link->establishedAt_,
+                                 table_.hasAlternative(peer),
+                                 (link->peer_.capabilities & wire::kCapabilityTool) != 0};
     if (shouldPrune(ids, self_, question)) link->close("not needed by the overlay");
   }
 }
@@ -804,7 +882,8 @@ void Network::Impl::pruneLinks() {
 std::vector<PeerInfo> Network::Impl::peers() const {
   std::vector<PeerInfo> result;
   for (const auto& [id, route] : table_.routes()) {
-    result.push_back(PeerInfo{id, route.name, route.incarnation, route.hops, route.nextHop});
+    result.push_back(
+        PeerInfo{id, route.name, route.incarnation, route.hops, route.nextHop, route.tool});
   }
   return result;
 }
@@ -826,7 +905,7 @@ Network::Network(asio::io_context& io, NetworkConfig config, PeisId self, std::u
     : impl_(std::make_unique<Impl>(io, std::move(config), self, incarnation, std::move(events))) {}
 Network::~Network() = default;
 void Network::start() { impl_->start(); }
-void Network::stop() { impl_->stop(); }
+void Network::stop(std::function<void()> closed) { impl_->stop(std::move(closed)); }
 bool Network::send(wire::RoutedMessage message) { return impl_->send(std::move(message)); }
 bool Network::sendUpdate(PeisId destination, std::uint64_t incarnation,
                          const std::shared_ptr<const Tuple>& tuple) {

@@ -36,6 +36,10 @@ struct NetworkConfig {
   std::size_t maxDataBytes = kDefaultMaxDataBytes;
   std::size_t coalesceAboveBytes = 4u << 20;  // backlog above which updates coalesce
   int maxMalformedFrames = 8;                 // then the peer is disconnected
+  // A short-lived tool PEIS (the `peis` command): marked as such in its
+  // Hello, beacons and route; other PEIS leave it out of their overlay, and
+  // it relays for nobody (docs/protocol.md §6, §8).
+  bool tool = false;
 };
 
 struct PeerInfo {
@@ -44,6 +48,7 @@ struct PeerInfo {
   std::uint64_t incarnation = 0;
   int hops = 0;        // 0: this PEIS, 1: a direct link
   PeisId nextHop = 0;  // the linked PEIS the route goes through
+  bool tool = false;   // a tool PEIS (NetworkConfig::tool)
 };
 
 struct LinkInfo {
@@ -82,7 +87,11 @@ class Network {
   // Binds the listener and the discovery socket; throws Error(InvalidArgument)
   // when the port is taken.
   void start();
-  void stop();
+  // Leaves the ecology: tells every linked PEIS (a Leave, passed on to the
+  // whole ecology), closes each link once what it has queued is written,
+  // and stops every timer. `closed` runs (on this thread) once no link is
+  // left, at once if there is none.
+  void stop(std::function<void()> closed = {});
 
   // Routes a message (envelope source is filled in). False when there is no
   // route to the destination (counted).

@@ -1,4 +1,4 @@
-// The PEIS wire protocol, version 1: every frame's byte layout. This header
+// The PEIS wire protocol, version 2: every frame's byte layout. This header
 // is the code-side statement of docs/protocol.md (which is normative); the
 // encoder and decoder in wire.cpp follow it field by field.
 //
@@ -17,8 +17,12 @@
 //           u64 incarnation | str8 name | u16 listen port | u32 capabilities |
 //           str16 auth (empty until authentication exists)
 //   Ping    u64 nonce          Pong  u64 nonce
-//   Routes  u16 count | count x (i32 id | u8 hops | u64 incarnation | str8 name)
+//   Routes  u16 count | count x (i32 id | u8 hops | u8 flags | u64 incarnation |
+//           u32 seqno | str8 name)
 //   IdTaken i32 id | u64 incarnation  (your id is already used: re-pick)
+//   Leave   i32 id | u64 incarnation  (that PEIS quit: forget it, pass it on)
+//   SeqnoRequest i32 id | u64 incarnation | u32 seqno | u8 hop limit
+//                (asks PEIS id for a route seqno of at least `seqno`)
 //
 // Routed messages start with an envelope: i32 source | i32 destination | u8 ttl
 //   Subscribe    u64 subscription | u32 lease ms | u8 has owner | i32 owner |
@@ -42,7 +46,7 @@
 namespace peis::wire {
 
 inline constexpr std::uint32_t kMagic = 0x50454953;  // "PEIS"
-inline constexpr std::uint16_t kVersion = 1;
+inline constexpr std::uint16_t kVersion = 2;
 inline constexpr std::size_t kFrameHeaderBytes = 4;
 // Largest frame: the largest data any PEIS accepts plus room for the fields.
 inline constexpr std::size_t kMaxFrameOverhead = 64 * 1024;
@@ -57,6 +61,8 @@ enum class MessageType : std::uint8_t {
   Pong = 3,
   Routes = 4,
   IdTaken = 5,
+  Leave = 6,
+  SeqnoRequest = 7,
   Subscribe = 16,
   Unsubscribe = 17,
   TupleUpdate = 18,
@@ -69,5 +75,8 @@ inline constexpr bool isRouted(MessageType type) { return static_cast<std::uint8
 
 // Capability flags in Hello.
 inline constexpr std::uint32_t kCapabilityCoalescing = 1u << 0;
+inline constexpr std::uint32_t kCapabilityTool = 1u << 1;  // a short-lived tool PEIS
+// Flags of a Routes entry.
+inline constexpr std::uint8_t kRouteFlagTool = 1u << 0;  // the PEIS is a tool
 
 }  // namespace peis::wire
