@@ -233,7 +233,8 @@ NetworkStats Kernel::networkStats() const {
                          c.coalesced,
                          c.idCollisions,
                          c.malformedBeacons,
-                         c.beaconsSuppressed};
+                         c.beaconsSuppressed,
+                         c.slowPeersDisconnected};
     MutexLock lock(impl_->mu);
     stats.coalesced += impl_->replication.coalesced();
   };

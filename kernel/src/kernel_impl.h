@@ -119,6 +119,7 @@ struct Kernel::Impl {
   void afterMutation() REQUIRES(mu);
   void drain() EXCLUDES(mu);
   void flush() EXCLUDES(mu);
+  void onWritable() EXCLUDES(mu);
   void armRetry() EXCLUDES(mu);
   void leaseLoop();
   // After a write of a tuple that expires: arm the expiry timer for it.

@@ -35,13 +35,14 @@ void Kernel::Impl::startNetwork() {  // kernel thread
   config.deadAfter = options.liveness;
   config.pingPeriod = std::max(options.liveness / 4, std::chrono::milliseconds(25));
   config.maxDataBytes = options.maxDataBytes;
+  config.stalledAfter = options.liveness;
   config.tool = options.tool;
   net::Network::Events events;
   events.onMessages = [this](std::vector<wire::RoutedMessage>&& m) { onMessages(std::move(m)); };
   events.onPeerUp = [this](const net::PeerInfo& p) { onPeerUp(p); };
   events.onPeerDown = [this](PeisId p) { onPeerDown(p); };
   events.repickId = [this] { return repickId(); };
-  events.onWritable = [this] { flush(); };
+  events.onWritable = [this] { onWritable(); };
   events.onTopology = [this] { onTopology(); };
   network = std::make_unique<net::Network>(io, config, id, incarnation, events);
   network->start();
@@ -112,7 +113,8 @@ void Kernel::Impl::onPeerDown(PeisId peer) {
     MutexLock lock(mu);
     log::debug(id, "PEIS " + std::to_string(peer) + " is gone");
     replication.onPeerDown(peer);
-    refreshSubscribersTuple();  // the membership tuples follow with onTopology
+    replication.outbox().drop(peer);  // nothing waits for a PEIS that is gone
+    refreshSubscribersTuple();        // the membership tuples follow with onTopology
     afterMutation();
   }
   remoteWrites.failOwner(

@@ -18,11 +18,14 @@ constexpr std::size_t kBytesPerTurn = 1u << 20;  // of tuple updates per turn, l
 // waits kStreamFlushDelay to collect more (docs/architecture.md, "Flush").
 constexpr std::size_t kStreamMessages = 16;
 constexpr std::chrono::microseconds kStreamFlushDelay{50};
+// What may wait in the outbox for one destination whose link is congested
+// before the link is closed (docs/protocol.md §13).
+constexpr std::size_t kMaxWaitingBytes = 16u << 20;
 
 }  // namespace
 
 void Kernel::Impl::afterMutation() {
-  if (!flushScheduled && replication.hasOutgoing()) {
+  if (!flushScheduled && replication.outbox().hasReady()) {
     flushScheduled = true;
     asio::post(io, [this] { flush(); });
   }
@@ -92,17 +95,28 @@ void Kernel::Impl::drain() {  // kernel thread: deliveries taken from the space,
   }
 }
 
-void Kernel::Impl::flush() {                    // kernel thread
-  if (network && network->congested()) return;  // onWritable posts flush again
+void Kernel::Impl::flush() {  // kernel thread
   outgoing.clear();
+  std::vector<PeisId> cutOff;
   {
     MutexLock lock(mu);
-    for (auto& frames : sentFrames) replication.recycleFrames(std::move(frames));
+    auto& outbox = replication.outbox();
+    for (auto& frames : sentFrames) outbox.recycleFrames(std::move(frames));
     sentFrames.clear();
-    replication.takeOutbox(outgoing, kMessagesPerTurn, kBytesPerTurn);
+    // What waits for a destination whose link is congested stays in its
+    // queue (coalescing there); every other destination is served.
+    const bool more = outbox.take(
+        outgoing, kMessagesPerTurn, kBytesPerTurn,
+        [this](PeisId destination) { return network && network->blocked(destination); });
+    for (const auto destination : outbox.blocked()) {
+      if (outbox.waitingFor(destination) > kMaxWaitingBytes) {
+        outbox.drop(destination);
+        cutOff.push_back(destination);
+      }
+    }
     std::size_t messages = 0;
     for (const auto& out : outgoing) messages += out.frameCount > 0 ? out.frameCount : 1;
-    if (replication.hasOutgoing()) {
+    if (more) {
       asio::post(io, [this] { flush(); });  // more: let the sockets drain first
     } else if (messages >= kStreamMessages) {
       // A writer is streaming: collect its next updates for a moment
@@ -129,6 +143,23 @@ void Kernel::Impl::flush() {                    // kernel thread
     }
   }
   outgoing.clear();  // drop the references to sent tuples now
+  // A peer that takes in less than it is sent, for longer than coalescing
+  // can absorb (messages that do not coalesce: the results of the writes it
+  // keeps sending, say), is cut off.
+  for (const auto destination : cutOff) {
+    if (network) {
+      network->cutOff(destination, "over " + std::to_string(kMaxWaitingBytes >> 20) +
+                                       " MiB waited for it (it reads too slowly)");
+    }
+  }
+}
+
+void Kernel::Impl::onWritable() {  // kernel thread: a congested link drained
+  {
+    MutexLock lock(mu);
+    replication.outbox().unblockAll();
+  }
+  flush();
 }
 
 void Kernel::Impl::leaseLoop() {  // kernel thread

@@ -50,13 +50,14 @@ RawPeer::~RawPeer() {
   if (fd_ >= 0) close(fd_);
 }
 
-void RawPeer::send(const std::string& bytes) {
+bool RawPeer::send(const std::string& bytes) {
   std::size_t sent = 0;
   while (sent < bytes.size()) {
     const auto n = ::send(fd_, bytes.data() + sent, bytes.size() - sent, MSG_NOSIGNAL);
-    if (n <= 0) return;  // the PEIS may already have hung up on us
+    if (n <= 0) return false;  // the PEIS may already have hung up on us
     sent += static_cast<std::size_t>(n);
   }
+  return true;
 }
 
 bool RawPeer::closedByPeer() {

@@ -31,8 +31,8 @@ class RawPeer {
   ~RawPeer();
 
   int fd() const { return fd_; }
-  // Sends every byte, unless the PEIS hung up (then quietly stops).
-  void send(const std::string& bytes);
+  // Sends every byte; false if the PEIS hung up first.
+  bool send(const std::string& bytes);
   // True once the PEIS closed the connection (read returns 0 or an error
   // other than a timeout), draining whatever it sent before.
   bool closedByPeer();

@@ -17,7 +17,8 @@ struct Counters {
   std::uint64_t coalesced = 0;
   std::uint64_t idCollisions = 0;
   std::uint64_t malformedBeacons = 0;
-  std::uint64_t beaconsSuppressed = 0;  // periodic beacons skipped (docs/protocol.md §6)
+  std::uint64_t beaconsSuppressed = 0;      // periodic beacons skipped (docs/protocol.md §6)
+  std::uint64_t slowPeersDisconnected = 0;  // links closed for reading too slowly (§13)
 };
 
 }  // namespace peis::net

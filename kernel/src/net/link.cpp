@@ -152,6 +152,7 @@ void Link::write() {
     if (chunk.tail) outBuffers_.emplace_back(asio::buffer(chunk.tail->data));
   }
   writing_ = true;
+  writingSince_ = SteadyClock::now();
   asio::async_write(socket_, outBuffers_,
                     [self = shared_from_this()](const boost::system::error_code& ec, std::size_t) {
                       self->writing_ = false;

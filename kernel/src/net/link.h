@@ -69,6 +69,11 @@ class Link : public std::enable_shared_from_this<Link> {
   // Bytes have arrived that are not read yet (a sign of life).
   bool bytesWaiting();
   bool closed() const { return closed_; }
+  // How long the write under way has been waiting for the peer to take it
+  // (zero when none is).
+  SteadyClock::duration writeWaiting(SteadyClock::time_point now) const {
+    return writing_ ? now - writingSince_ : SteadyClock::duration::zero();
+  }
 
   // --- State the Network keeps about the link --------------------------------
   const bool outbound_;
@@ -84,6 +89,9 @@ class Link : public std::enable_shared_from_this<Link> {
   PeisId checkedSource_ = 0;
   std::uint64_t checkedEpoch_ = 0;
   PeisId dialTarget_ = 0;  // the beacon peer this link was dialled for
+  // Found congested by the Network (its backlog over the high-water mark);
+  // cleared when it drains to half.
+  bool congested_ = false;
 
  private:
   // Frames waiting to be written: bytes, then (when set) a tuple's data,
@@ -116,6 +124,7 @@ class Link : public std::enable_shared_from_this<Link> {
   std::deque<Chunk> chunks_;
   std::size_t queued_ = 0;
   bool writing_ = false;
+  SteadyClock::time_point writingSince_;
   std::string closeReason_;
 };
 

@@ -74,7 +74,8 @@ class Network::Impl final : public LinkHandler {
   bool sendFrames(PeisId destination, std::string_view frames, std::uint32_t count);
   std::vector<PeerInfo> peers() const;
   std::vector<LinkInfo> links() const;
-  bool congested();
+  bool blocked(PeisId destination);
+  void cutOff(PeisId destination, const std::string& reason);
   bool reachable(PeisId id) const { return table_.contains(id); }
   std::uint16_t listenPort() const {
     boost::system::error_code ec;
@@ -153,7 +154,6 @@ class Network::Impl final : public LinkHandler {
   std::uint64_t incarnation_;
   Events events_;
   bool stopped_ = false;
-  bool congestedSignalled_ = false;
   RoutingTable table_;
   Discovery discovery_;
   tcp::acceptor acceptor_;
@@ -335,6 +335,7 @@ void Network::Impl::onClosed(Link& link, const std::string& reason) {
     if (links_.empty() && closed_) std::exchange(closed_, {})();
     return;
   }
+  if (link.congested_ && events_.onWritable) events_.onWritable();  // its waiting moves on
   if (!link.established_) {
     log::debug(self_, "link " + link.remote_ + " closed before the handshake: " + reason);
     return;
@@ -494,6 +495,16 @@ void Network::Impl::pingLoop() {
         link->close("silent for more than " + std::to_string(config_.deadAfter.count()) + " ms");
         continue;
       }
+      // A peer that stopped reading: its link stays congested and takes
+      // nothing. It is cut off rather than left to hold its messages.
+      if (link->congested_ && link->writeWaiting(now) > config_.stalledAfter) {
+        ++counters_.slowPeersDisconnected;
+        const auto reason = "took nothing for " + std::to_string(config_.stalledAfter.count()) +
+                            " ms with " + std::to_string(link->backlog()) + " bytes queued";
+        log::warn(self_, "closing the link to " + link->remote_ + ": " + reason);
+        link->close(reason);
+        continue;
+      }
       // Ping only a link we have heard nothing on for a ping period: the
       // Ping tells the peer we live, its Pong tells us. A link busy in
       // one direction costs one Ping a period, an idle one a single
@@ -521,21 +532,30 @@ void Network::Impl::redialLoop() {
 
 // --- Backpressure ----------------------------------------------------------------
 
+// Backpressure is per link: only what waits for a congested link waits.
+
 void Network::Impl::onWritten(Link& link) {
-  if (congestedSignalled_ && link.backlog() < config_.coalesceAboveBytes / 2 && !congested()) {
-    congestedSignalled_ = false;
+  if (link.congested_ && link.backlog() < config_.coalesceAboveBytes / 2) {
+    link.congested_ = false;
     if (events_.onWritable) events_.onWritable();
   }
 }
 
-bool Network::Impl::congested() {
-  for (const auto& link : links_) {
-    if (link->backlog() > config_.coalesceAboveBytes) {
-      congestedSignalled_ = true;
-      return true;
-    }
-  }
-  return false;
+bool Network::Impl::blocked(PeisId destination) {
+  const PeisId next = table_.nextHop(destination);
+  Link* link = next == 0 ? nullptr : findLink(next);
+  if (!link) return false;  // unroutable: taken and counted when sent
+  if (link->backlog() > config_.coalesceAboveBytes) link->congested_ = true;
+  return link->congested_;
+}
+
+void Network::Impl::cutOff(PeisId destination, const std::string& reason) {
+  const PeisId next = table_.nextHop(destination);
+  Link* link = next == 0 ? nullptr : findLink(next);
+  if (!link) return;
+  ++counters_.slowPeersDisconnected;
+  log::warn(self_, "closing the link to PEIS " + std::to_string(next) + ": " + reason);
+  link->close(reason);
 }
 
 // --- Routing -----------------------------------------------------------------------
@@ -755,6 +775,10 @@ bool Network::Impl::forward(PeisId destination, std::string frame, PeisId relaye
     if (auto one = table_.tellNow(link->peer_.id, relayedFrom)) sendLinkMessage(*link, *one);
   }
   link->sendFrame(frame);
+  if (link->backlog() > config_.maxBacklogBytes) {
+    ++counters_.slowPeersDisconnected;
+    link->close("over " + std::to_string(config_.maxBacklogBytes >> 20) + " MiB queued");
+  }
   return true;
 }
 
@@ -914,7 +938,10 @@ bool Network::sendUpdate(PeisId destination, std::uint64_t incarnation,
 bool Network::sendFrames(PeisId destination, std::string_view frames, std::uint32_t count) {
   return impl_->sendFrames(destination, frames, count);
 }
-bool Network::congested() { return impl_->congested(); }
+bool Network::blocked(PeisId destination) { return impl_->blocked(destination); }
+void Network::cutOff(PeisId destination, const std::string& reason) {
+  impl_->cutOff(destination, reason);
+}
 bool Network::reachable(PeisId id) const { return impl_->reachable(id); }
 std::vector<PeerInfo> Network::peers() const { return impl_->peers(); }
 std::vector<LinkInfo> Network::links() const { return impl_->links(); }

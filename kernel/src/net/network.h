@@ -34,8 +34,15 @@ struct NetworkConfig {
   std::chrono::milliseconds pingPeriod{500};
   std::chrono::milliseconds deadAfter{2000};  // silence after which a link is dead
   std::size_t maxDataBytes = kDefaultMaxDataBytes;
-  std::size_t coalesceAboveBytes = 4u << 20;  // backlog above which updates coalesce
-  int maxMalformedFrames = 8;                 // then the peer is disconnected
+  // A link's backlog above which it is congested: what waits for it stays in
+  // the outbox (where updates coalesce) until it has drained to half.
+  std::size_t coalesceAboveBytes = 4u << 20;
+  // A link congested for this long without taking a byte is closed; so is
+  // one whose backlog passes maxBacklogBytes (frames relayed for others and
+  // link messages do not wait in the outbox).
+  std::chrono::milliseconds stalledAfter{2000};
+  std::size_t maxBacklogBytes = 64u << 20;
+  int maxMalformedFrames = 8;  // then the peer is disconnected
   // A short-lived tool PEIS (the `peis` command): marked as such in its
   // Hello, beacons and route; other PEIS leave it out of their overlay, and
   // it relays for nobody (docs/protocol.md §6, §8).
@@ -72,7 +79,7 @@ class Network {
     // Routes or links changed (hops, next hops, a link opened or closed);
     // fires after the onPeerUp / onPeerDown events of the same change.
     std::function<void()> onTopology;
-    // The links drained after congested() said true: send more.
+    // A link blocked() found congested drained (or closed): send more.
     std::function<void()> onWritable;
     // Another PEIS that started earlier holds our id: pick a new one.
     std::function<PeisId()> repickId;
@@ -96,9 +103,14 @@ class Network {
   // Routes a message (envelope source is filled in). False when there is no
   // route to the destination (counted).
   bool send(wire::RoutedMessage message);
-  // True while some link has more than coalesceAboveBytes queued; then
-  // Events::onWritable fires once they have drained to half of that.
-  bool congested();
+  // True while the link to `destination`'s next hop has more than
+  // coalesceAboveBytes queued (the link is congested): what waits for it
+  // should wait. Events::onWritable fires once that link has drained to
+  // half of it, or closed.
+  bool blocked(PeisId destination);
+  // Closes the link to `destination`'s next hop: that peer reads too slowly
+  // (counted in slowPeersDisconnected).
+  void cutOff(PeisId destination, const std::string& reason);
   // Sends a tuple update encoded straight from the stored tuple (whose data,
   // when big, is written from the tuple itself: the link keeps it alive).
   bool sendUpdate(PeisId destination, std::uint64_t ownerIncarnation,
