@@ -748,3 +748,64 @@ TEST_CASE("replication subscriber side", "[unit][replication]") {
     CHECK(unsubscribed == std::set<PeisId>{2, 3});
   }
 }
+
+// A publisher restarted with the same id numbers its values from 1 again: its
+// new life must reach an indirect callback at once, not once its seqnos pass
+// those of the old life (issue 9).
+TEST_CASE("replication: a restarted owner's values reach an indirect callback at once",
+          "[unit][replication]") {
+  Fixture f;
+  f.replication.onPeerUp(2, 20);
+  f.space.setMeta("mi-x", TupleRef{2, "x"});
+  std::vector<std::string> seen;
+  f.space.addIndirectCallback(kSelf, "mi-x", peis::kOnChange,
+                              [&](EventKind, const Tuple& t) { seen.push_back(t.data); });
+  for (std::uint64_t n = 1; n <= 50; ++n) {
+    REQUIRE(f.replication.onUpdate(
+        2, wire::TupleUpdate{20, remoteTuple(2, "x", "old-" + std::to_string(n), n)}));
+  }
+  f.space.dispatch();
+  REQUIRE_FALSE(seen.empty());
+  CHECK(seen.back() == "old-50");
+  seen.clear();
+
+  SECTION("the new life is learnt from its first update") {
+    CHECK(f.replication.onUpdate(2, wire::TupleUpdate{30, remoteTuple(2, "x", "new-1", 1)}));
+    f.space.dispatch();
+    CHECK(seen == std::vector<std::string>{"new-1"});
+    // A value of the old life still in flight is dropped and not delivered.
+    CHECK_FALSE(f.replication.onUpdate(2, wire::TupleUpdate{20, remoteTuple(2, "x", "old", 51)}));
+    CHECK(f.replication.onUpdate(2, wire::TupleUpdate{30, remoteTuple(2, "x", "new-2", 2)}));
+    f.space.dispatch();
+    CHECK(seen == std::vector<std::string>{"new-1", "new-2"});
+  }
+
+  SECTION("the new life is learnt from the route first") {
+    f.replication.onPeerUp(2, 30);
+    CHECK_FALSE(f.space.get(2, "x"));  // the old life's value is gone
+    CHECK(f.replication.onUpdate(2, wire::TupleUpdate{30, remoteTuple(2, "x", "new-1", 1)}));
+    f.space.dispatch();
+    CHECK(seen == std::vector<std::string>{"new-1"});
+  }
+
+  SECTION("the old life's value had expired before the restart") {
+    auto expiring = remoteTuple(2, "x", "old-51", 51);
+    expiring.ts_expire = f.clock.now + 1s;
+    REQUIRE(f.replication.onUpdate(2, wire::TupleUpdate{20, std::move(expiring)}));
+    f.clock.advance(2s);
+    CHECK(f.space.expire() == 1);
+    f.space.dispatch();
+    seen.clear();
+    CHECK(f.replication.onUpdate(2, wire::TupleUpdate{30, remoteTuple(2, "x", "new-1", 1)}));
+    f.space.dispatch();
+    CHECK(seen == std::vector<std::string>{"new-1"});
+  }
+
+  SECTION("a re-created value of the same life is still delivered once") {
+    CHECK(f.replication.onDeleted(2, wire::TupleDeleted{20, 2, "x", 51}));
+    CHECK(f.replication.onUpdate(2, wire::TupleUpdate{20, remoteTuple(2, "x", "again", 52)}));
+    CHECK_FALSE(f.replication.onUpdate(2, wire::TupleUpdate{20, remoteTuple(2, "x", "dup", 52)}));
+    f.space.dispatch();
+    CHECK(seen == std::vector<std::string>{"again"});
+  }
+}

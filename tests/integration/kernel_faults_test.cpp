@@ -1,0 +1,379 @@
+// Faults found by using the kernel as a new user would (issue 9), shown
+// across real links and processes: a publisher restarted with the same id, a
+// far-future expiry, and refusals (data limits, a write gate) that must reach
+// the writer or the reader as the refuser's reason instead of a time-out.
+// Every test lives in an ecology of its own, waits for conditions with
+// generous deadlines and asserts no timing.
+#include <dirent.h>
+#include <signal.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <catch2/catch.hpp>
+#include <fstream>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <regex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "peis/component.h"
+#include "peis/error.h"
+#include "peis/kernel.h"
+#include "support/error_matchers.h"
+#include "support/process.h"
+#include "support/wait_for.h"
+
+using namespace std::chrono_literals;
+using peis::ErrorCode;
+using peis::PeisId;
+using peis::test::HasCode;
+using peis::test::Process;
+using peis::test::uniqueEcology;
+using peis::test::waitFor;
+
+namespace {
+
+constexpr auto kDeadline = std::chrono::milliseconds(20s);
+
+std::vector<std::string> cliArgs(const std::string& ecology, std::vector<std::string> args) {
+  std::vector<std::string> argv{peis::test::peisCliPath()};
+  argv.insert(argv.end(), args.begin(), args.end());
+  argv.push_back("--peis-ecology");
+  argv.push_back(ecology);
+  return argv;
+}
+
+// A PEIS of the test process, linked only where `connect` says (no discovery)
+// or found by discovery on loopback.
+peis::Options options(const std::string& ecology, const std::string& name,
+                      std::vector<std::string> connect = {}, bool discovery = false) {
+  peis::Options o;
+  o.ecology = ecology;
+  o.name = name;
+  o.discovery = discovery;
+  o.connect = std::move(connect);
+  return o;
+}
+
+std::string localhost(const peis::Kernel& k) { return "127.0.0.1:" + std::to_string(k.port()); }
+
+bool reaches(const peis::Kernel& k, PeisId id) {
+  for (const auto& peer : k.peers()) {
+    if (peer.id == id) return true;
+  }
+  return false;
+}
+
+// The error a call throws, if it throws a peis::Error.
+template <typename F>
+std::optional<peis::Error> errorOf(F&& call) {
+  try {
+    call();
+  } catch (const peis::Error& e) {
+    return e;
+  }
+  return std::nullopt;
+}
+
+bool contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+// CPU time of one thread of this process, by its kernel thread id.
+std::chrono::nanoseconds threadCpu(pid_t tid) {
+  // The per-thread CPU clock id that pthread_getcpuclockid() builds.
+  const clockid_t clock = static_cast<clockid_t>((~static_cast<unsigned>(tid) << 3) | 6);
+  timespec ts{};
+  if (clock_gettime(clock, &ts) != 0) return {};  // the thread ended
+  return std::chrono::seconds(ts.tv_sec) + std::chrono::nanoseconds(ts.tv_nsec);
+}
+
+// The CPU time all kernel threads ("peis-kernel") of this process used so far.
+std::chrono::nanoseconds kernelThreadsCpu() {
+  std::chrono::nanoseconds total{0};
+  DIR* dir = opendir("/proc/self/task");
+  if (!dir) return total;
+  while (const dirent* entry = readdir(dir)) {
+    if (entry->d_name[0] == '.') continue;
+    std::ifstream comm(std::string("/proc/self/task/") + entry->d_name + "/comm");
+    std::string name;
+    std::getline(comm, name);
+    if (name == "peis-kernel") total += threadCpu(static_cast<pid_t>(std::stol(entry->d_name)));
+  }
+  closedir(dir);
+  return total;
+}
+
+// CPU time the kernel threads use while a reference thread spins for
+// `reference` of CPU time. A kernel thread that spins too gets about as much
+// CPU as the reference, however loaded the host is; an idle one next to none.
+std::chrono::nanoseconds kernelCpuWhileSpinning(std::chrono::nanoseconds reference) {
+  const auto before = kernelThreadsCpu();
+  std::thread spinner([reference] {
+    timespec start{}, now{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &start);
+    volatile std::uint64_t work = 0;
+    do {
+      for (int i = 0; i < 100000; ++i) work = work + 1;
+      clock_gettime(CLOCK_THREAD_CPUTIME_ID, &now);
+    } while ((now.tv_sec - start.tv_sec) * 1'000'000'000LL + (now.tv_nsec - start.tv_nsec) <
+             reference.count());
+  });
+  spinner.join();
+  return kernelThreadsCpu() - before;
+}
+
+}  // namespace
+
+// (1) A publisher restarted with the same id numbers its values from 1 again.
+// The component following it through mi-tick must run again with the new
+// life's first values, not once their seqnos pass the old life's.
+TEST_CASE("a component's input follows a publisher restarted with the same id at once",
+          "[fault][restart]") {
+  const auto ecology = uniqueEcology("restart");
+  const PeisId nodeId = 1'000'000 + static_cast<PeisId>(getpid() % 1'000'000);
+  const std::vector<std::string> nodeArgs = {"node",         "--peis-id",          std::to_string(nodeId),
+                                             "--peis-name",  "sensor",             "--peis-liveness-ms",
+                                             "1000"};
+  auto node = std::make_unique<Process>(cliArgs(ecology, nodeArgs));
+  peis::Kernel k(options(ecology, "follower", {}, true));
+  REQUIRE(waitFor([&] { return reaches(k, nodeId); }, kDeadline));
+
+  // The sensor's old life, long enough that its seqnos are far ahead: a 10 Hz
+  // sensor that ran for 50 s.
+  for (int n = 1; n <= 500; ++n) k.set(nodeId, "tick", "old-" + std::to_string(n));
+
+  peis::Component component(k, "follower");
+  component.input("tick", 1000ms);
+  k.setMeta("mi-tick", nodeId, "tick");
+  component.start();
+
+  // From now on the sensor publishes at 10 Hz (its values are written by this
+  // PEIS; the node owns and numbers them).
+  std::atomic<int> life{1};
+  std::atomic<int> count{0};
+  const auto ticker = k.every(100ms, [&] {
+    k.setAsync(nodeId, "tick", "life" + std::to_string(life.load()) + "-" +
+                                   std::to_string(++count));
+  });
+  auto inputFrom = [&](const std::string& prefix) {
+    const auto value = component.inputValue("tick");
+    return component.status() == peis::ComponentStatus::Running && value &&
+           value->data.rfind(prefix, 0) == 0;
+  };
+  REQUIRE(waitFor([&] { return inputFrom("life1-"); }, kDeadline));
+  const auto oldSeqno = component.inputValue("tick")->seqno;
+  REQUIRE(oldSeqno > 500);
+
+  node->kill(SIGKILL);
+  REQUIRE(node->wait(kDeadline).has_value());
+  REQUIRE(waitFor([&] { return component.status() == peis::ComponentStatus::Waiting; },
+                  kDeadline));
+
+  life = 2;
+  node = std::make_unique<Process>(cliArgs(ecology, nodeArgs));
+  const bool back = waitFor([&] { return inputFrom("life2-"); }, kDeadline);
+  k.cancelTimer(ticker);
+  INFO(node->describe());
+  REQUIRE(back);
+  // Running again on values of the new life whose seqnos are still far below
+  // the old life's: the new incarnation was accepted at once.
+  CHECK(component.inputValue("tick")->seqno < oldSeqno);
+}
+
+// (2) A ts_expire centuries ahead overflowed the conversion to the timer's
+// nanoseconds: the expiry timer fired again without end on the owner and on
+// every subscriber.
+TEST_CASE("tuples that expire centuries ahead leave the kernel threads idle", "[fault][expiry]") {
+  const auto ecology = uniqueEcology("far-expiry");
+  peis::Kernel owner(options(ecology, "owner"));
+  peis::Kernel subscriber(options(ecology, "subscriber", {localhost(owner)}));
+  REQUIRE(waitFor([&] { return reaches(subscriber, owner.id()); }, kDeadline));
+
+  peis::WriteOptions farAhead;
+  farAhead.ts_expire = peis::systemNow() + std::chrono::hours(24 * 366 * 400);  // 400 years
+  owner.set("far.local", "set by its owner", farAhead);
+  subscriber.set(owner.id(), "far.remote", "set by a remote write", farAhead);
+  subscriber.set("far.own", "the subscriber's own", farAhead);
+  for (const auto* key : {"far.local", "far.remote"}) {
+    INFO(key);
+    REQUIRE(subscriber.get(owner.id(), key, kDeadline));
+    REQUIRE(owner.get(key));
+  }
+
+  const auto reference = std::chrono::nanoseconds(300ms);
+  const auto used = kernelCpuWhileSpinning(reference);
+  INFO("kernel threads used " << used.count() / 1000 << " us of CPU while a spinning thread used "
+                              << reference.count() / 1000 << " us");
+  CHECK(used < reference / 4);
+  CHECK(owner.get("far.local"));
+  CHECK(subscriber.get("far.own"));
+
+  // The longest ttl: ts_write + ttl would overflow; it saturates instead of
+  // wrapping into the past (the tuple would expire at once).
+  peis::WriteOptions longest;
+  longest.ttl = std::chrono::microseconds::max();
+  subscriber.set(owner.id(), "far.ttl", "the longest ttl", longest);
+  const auto tuple = subscriber.get(owner.id(), "far.ttl", kDeadline);
+  REQUIRE(tuple);
+  CHECK(tuple->ts_expire > peis::systemNow() + std::chrono::hours(24 * 365 * 1000));
+  CHECK(kernelCpuWhileSpinning(reference) < reference / 4);
+}
+
+// (3) A write refused for its size: the refuser's reason reaches the writer.
+TEST_CASE("a write over a data limit fails with the refuser's reason", "[integration][limits]") {
+  const auto ecology = uniqueEcology("write-limit");
+  auto small = options(ecology, "small");
+  small.maxDataBytes = 1000;
+
+  SECTION("the owner refuses, also a frame far over its frame limit") {
+    peis::Kernel owner(small);
+    peis::Kernel writer(options(ecology, "writer", {localhost(owner)}));
+    REQUIRE(waitFor([&] { return reaches(writer, owner.id()); }, kDeadline));
+    for (std::size_t size : {5000u, 300000u}) {
+      INFO(size << " bytes");
+      const auto error = errorOf([&] { writer.set(owner.id(), "big", std::string(size, 'x')); });
+      REQUIRE(error);
+      INFO(error->what());
+      CHECK(error->code() == ErrorCode::TooLarge);
+      CHECK(contains(error->what(), "PEIS " + std::to_string(owner.id())));
+      CHECK(contains(error->what(), "at most 1000"));
+    }
+    // The link carried the refusals and lives on.
+    CHECK(writer.set(owner.id(), "small", "fits").seqno == 1);
+    CHECK(owner.networkStats().garbagePeersDisconnected == 0);
+    CHECK(owner.networkStats().malformedFrames == 0);
+  }
+
+  SECTION("a relay with a smaller limit answers for the owner") {
+    peis::Kernel owner(options(ecology, "owner"));
+    small.connect = {localhost(owner)};
+    peis::Kernel relay(small);
+    peis::Kernel writer(options(ecology, "writer", {localhost(relay)}));
+    REQUIRE(waitFor([&] { return reaches(writer, owner.id()); }, kDeadline));
+    const auto error = errorOf([&] { writer.set(owner.id(), "big", std::string(5000, 'x')); });
+    REQUIRE(error);
+    INFO(error->what());
+    CHECK(error->code() == ErrorCode::TooLarge);
+    CHECK(contains(error->what(), "PEIS " + std::to_string(relay.id())));
+    CHECK(contains(error->what(), "at most 1000"));
+    CHECK(writer.set(owner.id(), "small", "fits").seqno == 1);
+  }
+}
+
+// (3) A tuple over a subscriber's limit: the reader learns why it has no value.
+TEST_CASE("a tuple over the reader's data limit reads as too large, not as absent",
+          "[integration][limits]") {
+  const auto ecology = uniqueEcology("read-limit");
+  auto small = options(ecology, "small");
+  small.maxDataBytes = 1000;
+  peis::Kernel owner(options(ecology, "owner"));
+  owner.set("big", std::string(5000, 'x'));
+  owner.set("huge", std::string(300000, 'x'));
+  owner.set("small", "fits");
+
+  auto readsTooLarge = [&](peis::Kernel& reader, PeisId limitedBy) {
+    for (const auto* key : {"big", "huge"}) {
+      INFO(key);
+      const auto error = errorOf([&] { reader.get(owner.id(), key, kDeadline); });
+      REQUIRE(error);
+      INFO(error->what());
+      CHECK(error->code() == ErrorCode::TooLarge);
+      CHECK(contains(error->what(), "--peis-max-data"));
+      CHECK(contains(error->what(), "PEIS " + std::to_string(limitedBy)));
+    }
+    // The link lives on: other values arrive, and so does a new value that fits.
+    CHECK(reader.get(owner.id(), "small", kDeadline));
+    reader.subscribe(peis::Pattern::exact(owner.id(), "big"));
+    owner.set("big", "now it fits");
+    CHECK(waitFor(
+        [&] {
+          const auto t = reader.get(owner.id(), "big");
+          return t && t->data == "now it fits";
+        },
+        kDeadline));
+  };
+
+  SECTION("the reader's own limit") {
+    small.connect = {localhost(owner)};
+    peis::Kernel reader(small);
+    REQUIRE(waitFor([&] { return reaches(reader, owner.id()); }, kDeadline));
+    readsTooLarge(reader, reader.id());
+    CHECK(reader.networkStats().malformedFrames == 0);
+    CHECK(reader.networkStats().garbagePeersDisconnected == 0);
+  }
+
+  SECTION("a relay's limit") {
+    small.connect = {localhost(owner)};
+    peis::Kernel relay(small);
+    peis::Kernel reader(options(ecology, "reader", {localhost(relay)}));
+    REQUIRE(waitFor([&] { return reaches(reader, owner.id()); }, kDeadline));
+    readsTooLarge(reader, relay.id());
+  }
+}
+
+// (3) The same through the `peis` command: the owner's refusal of a set and a
+// value too large for the command's own limit are reported as such.
+TEST_CASE("peis set and peis get report a data limit instead of a time-out",
+          "[integration][limits][cli]") {
+  const auto ecology = uniqueEcology("cli-limit");
+  auto ownerOptions = options(ecology, "keeper", {}, true);
+  ownerOptions.maxDataBytes = 1000;
+  peis::Kernel owner(ownerOptions);
+  owner.set("big", std::string(900, 'x'));
+
+  Process set(cliArgs(ecology, {"set", "keeper.value", std::string(5000, 'x')}));
+  REQUIRE(set.wait(kDeadline + 10s).has_value());
+  INFO(set.describe());
+  CHECK(*set.wait(0ms) == 1);
+  CHECK(contains(set.err(), "at most 1000"));
+  CHECK_FALSE(contains(set.err(), "did not answer"));
+
+  Process get(cliArgs(ecology, {"get", "keeper.big", "--wait", "20", "--peis-max-data", "100"}));
+  REQUIRE(get.wait(kDeadline + 10s).has_value());
+  INFO(get.describe());
+  CHECK(*get.wait(0ms) == 1);
+  CHECK(contains(get.err(), "--peis-max-data"));
+  CHECK_FALSE(contains(get.err(), "has no value"));
+}
+
+// Other places where an error used to turn into a time-out.
+TEST_CASE("remote writes fail with their reason, not with a time-out", "[integration][limits]") {
+  const auto ecology = uniqueEcology("write-errors");
+  peis::Kernel owner(options(ecology, "owner"));
+  auto writerOptions = options(ecology, "writer", {localhost(owner)});
+  writerOptions.writeTimeout = 4000ms;
+  peis::Kernel writer(writerOptions);
+  REQUIRE(waitFor([&] { return reaches(writer, owner.id()); }, kDeadline));
+
+  SECTION("a negative ttl is the writer's error (the owner took it for a malformed frame)") {
+    peis::WriteOptions negative;
+    negative.ttl = -1s;
+    const auto error = errorOf([&] { writer.set(owner.id(), "k", "v", negative); });
+    REQUIRE(error);
+    INFO(error->what());
+    CHECK(error->code() == ErrorCode::InvalidArgument);
+    CHECK(owner.networkStats().malformedFrames == 0);
+  }
+
+  SECTION("a write gate that does not decide in time: the owner says so") {
+    std::vector<peis::WriteDecision> held;
+    std::mutex mu;
+    owner.setWriteGate([&](const peis::Tuple&, PeisId, const peis::WriteDecision& decide) {
+      std::lock_guard lock(mu);
+      held.push_back(decide);  // a device that never confirms
+      return true;
+    });
+    const auto error = errorOf([&] { writer.set(owner.id(), "lamp", "on"); });
+    REQUIRE(error);
+    INFO(error->what());
+    CHECK(error->code() == ErrorCode::Timeout);
+    CHECK(contains(error->what(), "PEIS " + std::to_string(owner.id()) + ": "));
+    CHECK(contains(error->what(), "write gate"));
+    owner.setWriteGate({});
+  }
+}
