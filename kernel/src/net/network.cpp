@@ -146,6 +146,10 @@ class Network::Impl {
 
   // Called by links.
   void onFrame(const std::shared_ptr<Link>& link, std::string_view frame);
+  // A routed frame whose data is over this PEIS's limit (its whole frame or
+  // its first kOversizeHeadBytes): answered, not dropped (protocol.md §2.1).
+  // False when it is not one (malformed).
+  bool answerOversize(const std::shared_ptr<Link>& link, std::string_view head);
   void onClosed(const std::shared_ptr<Link>& link, const std::string& reason);
   // A link finished a write; `backlog` bytes are still queued on it.
   void onWritten(std::size_t backlog);
@@ -343,6 +347,8 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   }
 
   std::size_t backlog() const { return inFlight_ + queued_; }
+  // Part of a frame has arrived and the rest has not (a big frame in transit).
+  bool midFrame() const { return inEnd_ > inPos_ || skip_ > 0; }
   bool bytesWaiting() {
     boost::system::error_code ec;
     return socket_.available(ec) > 0 && !ec;
@@ -496,8 +502,24 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   void parse() {
     while (!closed_) {
       const std::size_t available = inEnd_ - inPos_;
+      if (skip_ > 0) {  // the rest of an oversized frame, already answered
+        const auto n = std::min(skip_, available);
+        inPos_ += n;
+        skip_ -= n;
+        if (skip_ > 0) break;
+        continue;
+      }
       if (available < wire::kFrameHeaderBytes) break;
       const auto length = wire::frameLength(std::string_view(in_.get() + inPos_, available));
+      if (length > net_.maxFrameBytes() && length <= wire::kLargestFrameBytes) {
+        // Over this PEIS's limit, not the protocol's: answer it from its head.
+        const auto head = std::min<std::size_t>(length, wire::kOversizeHeadBytes);
+        if (available < wire::kFrameHeaderBytes + head) break;
+        const auto frame = std::string_view(in_.get() + inPos_ + wire::kFrameHeaderBytes, head);
+        inPos_ += wire::kFrameHeaderBytes + head;
+        skip_ = length - head;
+        if (net_.answerOversize(shared_from_this(), frame)) continue;
+      }
       if (length == 0 || length > net_.maxFrameBytes()) {
         ++net_.counters_.malformedFrames;
         ++net_.counters_.garbagePeersDisconnected;
@@ -521,6 +543,7 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   std::size_t inCapacity_ = 0;
   std::size_t readRoom_ = kFirstReadRoom;
   std::size_t inPos_ = 0, inEnd_ = 0;
+  std::size_t skip_ = 0;  // bytes of an oversized frame still to be skipped
   // Frames waiting to be written: bytes, then (when set) a tuple's data,
   // which is the end of the frame those bytes begin.
   struct Chunk {
@@ -709,6 +732,7 @@ void Network::Impl::onFrame(const std::shared_ptr<Link>& link, std::string_view 
     auto& message = inbox_.emplace_back();
     if (!wire::decodeRouted(frame, config_.maxDataBytes, message, decodeError_)) {
       inbox_.pop_back();
+      if (answerOversize(link, frame)) return;
       return onMalformed(link, decodeError_);
     }
     if (!link->established_) {
@@ -757,6 +781,18 @@ void Network::Impl::onFrame(const std::shared_ptr<Link>& link, std::string_view 
   } else if (auto* taken = std::get_if<wire::IdTaken>(&message)) {
     if (taken->id == self_ && taken->incarnation == incarnation_) collision(0);
   }
+}
+
+bool Network::Impl::answerOversize(const std::shared_ptr<Link>& link, std::string_view head) {
+  auto oversize = wire::decodeOversize(head, config_.maxDataBytes);
+  if (!oversize || !link->established_) return false;
+  auto answer = wire::answerOversize(*oversize, self_, config_.maxDataBytes);
+  if (answer.envelope.destination == self_) {
+    inbox_.push_back(std::move(answer));  // a TupleWithheld in place of the owner's update
+  } else {
+    forward(answer.envelope.destination, wire::encodeFrame(answer));
+  }
+  return true;
 }
 
 void Network::Impl::onHello(const std::shared_ptr<Link>& link, const wire::Hello& hello) {
@@ -1225,7 +1261,11 @@ void Network::Impl::pingLoop() {
       // Ping tells the peer we live, its Pong tells us. A link busy in
       // one direction costs one Ping a period, an idle one a single
       // exchange (whichever end asks first), not one from each end.
-      if (!link->established_ || now - link->lastHeard_ < config_.pingPeriod) continue;
+      // So does one that receives a big frame and sends nothing: the peer
+      // sending it hears nothing else, and its own Ping waits behind the frame.
+      const bool quiet = now - link->lastHeard_ >= config_.pingPeriod ||
+                         (link->midFrame() && now - link->lastSent_ >= config_.pingPeriod);
+      if (!link->established_ || !quiet) continue;
       std::string out;
       wire::encode(
           wire::LinkMessage{wire::Ping{static_cast<std::uint64_t>(now.time_since_epoch().count())}},
