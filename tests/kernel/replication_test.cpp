@@ -809,3 +809,78 @@ TEST_CASE("replication: a restarted owner's values reach an indirect callback at
     CHECK(seen == std::vector<std::string>{"again"});
   }
 }
+
+// A value over a subscriber's data limit (issue 9): the owner sends what the
+// subscriber needs to know instead of a frame it would have to drop.
+TEST_CASE("replication: a value over the subscriber's limit is sent as TupleWithheld",
+          "[unit][replication]") {
+  Fixture f;
+  f.space.set("big", std::string(5000, 'x'));
+  f.space.set("small", "fits");
+  f.take();
+  auto limited = subscribeMsg(1, "**");
+  limited.maxDataBytes = 1000;
+  f.replication.onSubscribe(9, limited, f.now);
+  auto outbox = f.take();
+  CHECK(updatedKeys(outbox, 9) == std::multiset<std::string>{"small"});
+  std::vector<wire::TupleWithheld> notices;
+  for (const auto& out : outbox) {
+    if (const auto* w = bodyAs<wire::TupleWithheld>(out)) {
+      CHECK(out.destination == 9);
+      notices.push_back(*w);
+    }
+  }
+  REQUIRE(notices.size() == 1);
+  CHECK(notices[0].ownerIncarnation == kIncarnation);
+  CHECK(notices[0].limitedBy == 9);
+  CHECK(notices[0].limit == 1000);
+  CHECK(notices[0].dataBytes == 5000);
+  CHECK(notices[0].tuple.key == "big");
+  CHECK(notices[0].tuple.seqno == 1);
+  CHECK(notices[0].tuple.data.empty());
+
+  // Changes follow the same rule; a subscriber without a limit gets the value.
+  f.replication.onSubscribe(8, subscribeMsg(2, "**"), f.now);
+  f.take();
+  f.space.set("big", std::string(6000, 'y'));
+  outbox = f.take();
+  CHECK(updatedKeys(outbox, 8) == std::multiset<std::string>{"big"});
+  CHECK(updatedKeys(outbox, 9).empty());
+  std::size_t toNine = 0;
+  for (const auto& out : outbox) {
+    if (const auto* w = bodyAs<wire::TupleWithheld>(out)) {
+      CHECK(out.destination == 9);
+      CHECK(w->dataBytes == 6000);
+      ++toNine;
+    }
+  }
+  CHECK(toNine == 1);
+}
+
+TEST_CASE("replication: the subscriber side takes a TupleWithheld from the owner or a relay",
+          "[unit][replication]") {
+  Fixture f;
+  f.replication.onPeerUp(2, 20);
+  f.replication.subscribe(Pattern("**", PeisId{2}));
+  const auto sent = f.take();
+  REQUIRE(sent.size() == 1);
+  // Our Subscribe tells the owner our limit.
+  CHECK(bodyAs<wire::Subscribe>(sent[0])->maxDataBytes == peis::kDefaultMaxDataBytes);
+
+  REQUIRE(f.replication.onUpdate(2, wire::TupleUpdate{20, remoteTuple(2, "big", "small", 1)}));
+  auto head = remoteTuple(2, "big", "", 2);
+  CHECK(f.replication.onWithheld(wire::TupleWithheld{20, 5, 1000, 5000, head}));
+  CHECK_FALSE(f.space.get(2, "big"));
+  REQUIRE(f.space.withheld(2, "big"));
+  CHECK(f.space.withheld(2, "big")->limitedBy == 5);
+  const auto before = f.replication.staleDropped();
+  CHECK_FALSE(f.replication.onWithheld(wire::TupleWithheld{19, 5, 1000, 5000, head}));
+  CHECK(f.replication.staleDropped() == before + 1);
+
+  // A renewal counts what it knows of, held or withheld: no resync for it.
+  f.replication.renew();
+  const auto renewals = f.take();
+  REQUIRE(renewals.size() == 1);
+  CHECK(bodyAs<wire::Subscribe>(renewals[0])->knownCount == 1);
+  CHECK(bodyAs<wire::Subscribe>(renewals[0])->knownSeqnoSum == 2);
+}
