@@ -443,13 +443,14 @@ struct Kernel::Impl {
     // its deadline pass (docs/protocol.md §12).
     const auto hold = std::chrono::milliseconds(held->waitMs) * 3 / 4;
     gateTimer->expires_after(hold);
-    gateTimer->async_wait([decide, hold, waitMs = held->waitMs](const boost::system::error_code& ec) {
-      if (ec) return;
-      decide(Error(ErrorCode::Timeout, "its write gate held the write for " +
-                                           std::to_string(hold.count()) +
-                                           " ms without a decision (the writer waits " +
-                                           std::to_string(waitMs) + " ms)"));
-    });
+    gateTimer->async_wait(
+        [decide, hold, waitMs = held->waitMs](const boost::system::error_code& ec) {
+          if (ec) return;
+          decide(Error(ErrorCode::Timeout, "its write gate held the write for " +
+                                               std::to_string(hold.count()) +
+                                               " ms without a decision (the writer waits " +
+                                               std::to_string(waitMs) + " ms)"));
+        });
   }
 
   void onPeerDown(PeisId peer) {
@@ -566,7 +567,7 @@ struct Kernel::Impl {
     wire::Write write;
     write.op = op;
     write.ifSeqno = ifSeqno;
-    write.ttlMicros = std::max<std::int64_t>(writeOptions.ttl.count(), 0);  // <= 0: never expires
+    write.ttlMicros = std::max<std::int64_t>(writeOptions.ttl.count(), 0);    // <= 0: never expires
     write.waitMs = static_cast<std::uint32_t>(options.writeTimeout.count());  // validated to fit
     write.tuple.owner = owner;
     write.tuple.creator = id;

@@ -333,10 +333,10 @@ void Replication::pushUpdate(PeisId destination, const TuplePtr& tuple,
                              std::uint32_t maxDataBytes) {
   if (tuple->data.size() > maxDataBytes) {
     // The subscriber would have to drop the update: say what it misses.
-    return push(Outgoing{destination, nullptr,
-                         wire::TupleWithheld{incarnation_, destination, maxDataBytes,
-                                             static_cast<std::uint32_t>(tuple->data.size()),
-                                             withoutData(*tuple)}});
+    return push(Outgoing{
+        destination, nullptr,
+        wire::TupleWithheld{incarnation_, destination, maxDataBytes,
+                            static_cast<std::uint32_t>(tuple->data.size()), withoutData(*tuple)}});
   }
   const bool big = tuple->data.size() >= wire::kZeroCopyDataBytes;
   if (outboxBytes_ < kTrackOutboxAbove && !big) return appendFrame(destination, *tuple);

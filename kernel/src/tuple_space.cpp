@@ -87,8 +87,9 @@ void TupleSpace::Delivery::run(const std::function<void(std::exception_ptr)>& on
     }
     if (!tuple_ || !sameRef(indirect.deliverTarget, *tuple_)) continue;
     // A new life of the target's owner numbers from 1 again: it is newer.
-    const bool newer = incarnation_ > indirect.lastIncarnation ||
-                       (incarnation_ == indirect.lastIncarnation && tuple_->seqno > indirect.lastSeqno);
+    const bool newer =
+        incarnation_ > indirect.lastIncarnation ||
+        (incarnation_ == indirect.lastIncarnation && tuple_->seqno > indirect.lastSeqno);
     if (!newer) continue;
     indirect.lastIncarnation = incarnation_;
     indirect.lastSeqno = tuple_->seqno;
@@ -364,7 +365,8 @@ std::vector<TupleSpace::Withheld> TupleSpace::findWithheld(const Pattern& patter
 }
 
 std::string TupleSpace::Withheld::reason(PeisId self) const {
-  const auto head = tuple.fullName() + " is " + std::to_string(dataBytes) + " bytes: too large for ";
+  const auto head =
+      tuple.fullName() + " is " + std::to_string(dataBytes) + " bytes: too large for ";
   if (limitedBy == self) {
     return head + "this PEIS's --peis-max-data (" + std::to_string(limit) + " bytes; PEIS " +
            std::to_string(self) + ")";

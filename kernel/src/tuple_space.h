@@ -241,7 +241,7 @@ class TupleSpace {
   std::map<std::string, std::uint64_t, std::less<>>::iterator lastSeqno_;
   bool hasLastSeqno_ = false;
   std::map<PeisId, std::uint64_t> incarnations_;  // of other owners
-  PeisId lastLifeOwner_ = 0;  // the entry of incarnations_ noted last
+  PeisId lastLifeOwner_ = 0;                      // the entry of incarnations_ noted last
   std::uint64_t lastLife_ = 0;
   std::map<TupleRef, Withheld> withheld_;
   std::map<CallbackId, std::shared_ptr<Entry>> callbacks_;

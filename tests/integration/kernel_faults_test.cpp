@@ -206,7 +206,8 @@ bool isLink(const peis::wire::Message& message) {
 // (3) A big value in transit: the PEIS receiving it hears bytes all along and
 // so never pinged, while the sender heard nothing (its Ping waits behind the
 // value) and closed the link as silent. A 50 MB tuple then never arrived.
-TEST_CASE("a PEIS that receives a big frame slowly tells the sender it lives", "[fault][liveness]") {
+TEST_CASE("a PEIS that receives a big frame slowly tells the sender it lives",
+          "[fault][liveness]") {
   const auto ecology = uniqueEcology("mid-frame");
   auto receiverOptions = options(ecology, "receiver");
   receiverOptions.liveness = 400ms;  // pings every 100 ms
@@ -235,7 +236,8 @@ TEST_CASE("a PEIS that receives a big frame slowly tells the sender it lives", "
     sent += piece;
     for (const auto& message : sender.poll()) {
       if (!isLink<peis::wire::Ping>(message)) continue;
-      const auto nonce = std::get<peis::wire::Ping>(std::get<peis::wire::LinkMessage>(message)).nonce;
+      const auto nonce =
+          std::get<peis::wire::Ping>(std::get<peis::wire::LinkMessage>(message)).nonce;
       pinged |= static_cast<std::int64_t>(nonce) > began;
     }
     std::this_thread::sleep_for(5ms);  // the pace of a slow link
@@ -267,8 +269,8 @@ TEST_CASE("a component's input follows a publisher restarted with the same id at
           "[fault][restart]") {
   const auto ecology = uniqueEcology("restart");
   const PeisId nodeId = 1'000'000 + static_cast<PeisId>(getpid() % 1'000'000);
-  const std::vector<std::string> nodeArgs = {"node",         "--peis-id",          std::to_string(nodeId),
-                                             "--peis-name",  "sensor",             "--peis-liveness-ms",
+  const std::vector<std::string> nodeArgs = {"node",        "--peis-id", std::to_string(nodeId),
+                                             "--peis-name", "sensor",    "--peis-liveness-ms",
                                              "1000"};
   auto node = std::make_unique<Process>(cliArgs(ecology, nodeArgs));
   peis::Kernel k(options(ecology, "follower", {}, true));
@@ -288,8 +290,8 @@ TEST_CASE("a component's input follows a publisher restarted with the same id at
   std::atomic<int> life{1};
   std::atomic<int> count{0};
   const auto ticker = k.every(100ms, [&] {
-    k.setAsync(nodeId, "tick", "life" + std::to_string(life.load()) + "-" +
-                                   std::to_string(++count));
+    k.setAsync(nodeId, "tick",
+               "life" + std::to_string(life.load()) + "-" + std::to_string(++count));
   });
   auto inputFrom = [&](const std::string& prefix) {
     const auto value = component.inputValue("tick");
@@ -302,8 +304,7 @@ TEST_CASE("a component's input follows a publisher restarted with the same id at
 
   node->kill(SIGKILL);
   REQUIRE(node->wait(kDeadline).has_value());
-  REQUIRE(waitFor([&] { return component.status() == peis::ComponentStatus::Waiting; },
-                  kDeadline));
+  REQUIRE(waitFor([&] { return component.status() == peis::ComponentStatus::Waiting; }, kDeadline));
 
   life = 2;
   node = std::make_unique<Process>(cliArgs(ecology, nodeArgs));

@@ -27,7 +27,8 @@ TEST_CASE("saturatingCast clamps a coarse duration to the finer unit's range", "
   CHECK(peis::saturatingCast<nanoseconds>(std::chrono::milliseconds::min()) == nanoseconds::min());
   // 300 years of microseconds: more nanoseconds than an i64 holds (the
   // std::chrono cast would overflow, which is what made the expiry timer spin).
-  const auto centuries = std::chrono::duration_cast<microseconds>(std::chrono::hours(24 * 365 * 300));
+  const auto centuries =
+      std::chrono::duration_cast<microseconds>(std::chrono::hours(24 * 365 * 300));
   CHECK(peis::saturatingCast<nanoseconds>(centuries) == nanoseconds::max());
   // Within range it is exact, at the very edge too.
   const auto edge = microseconds(kMost / 1000);

@@ -1007,10 +1007,11 @@ TEST_CASE("a newer incarnation of an owner is accepted at once, an older one nev
 
   space.dispatch();
   // The old life's tuples were deleted (with their own seqnos) before the new value.
-  const std::vector<Seen> expected = {
-      {"all", EventKind::Changed, "2.a", "old", 40}, {"all", EventKind::Changed, "2.b", "old", 7},
-      {"all", EventKind::Deleted, "2.a", "old", 40}, {"all", EventKind::Deleted, "2.b", "old", 7},
-      {"all", EventKind::Changed, "2.a", "new", 1}};
+  const std::vector<Seen> expected = {{"all", EventKind::Changed, "2.a", "old", 40},
+                                      {"all", EventKind::Changed, "2.b", "old", 7},
+                                      {"all", EventKind::Deleted, "2.a", "old", 40},
+                                      {"all", EventKind::Deleted, "2.b", "old", 7},
+                                      {"all", EventKind::Changed, "2.a", "new", 1}};
   CHECK(r.seen == expected);
 }
 
@@ -1085,11 +1086,10 @@ TEST_CASE("withheld values: recorded, replaced in seqno order, forgotten with th
 
   space.dispatch();
   // Each cached value a newer record replaced left with a delete event.
-  const std::vector<Seen> expected = {
-      {"all", EventKind::Changed, "2.big", "small", 3},
-      {"all", EventKind::Deleted, "2.big", "small", 4},
-      {"all", EventKind::Changed, "2.big", "fits", 5},
-      {"all", EventKind::Deleted, "2.big", "fits", 6}};
+  const std::vector<Seen> expected = {{"all", EventKind::Changed, "2.big", "small", 3},
+                                      {"all", EventKind::Deleted, "2.big", "small", 4},
+                                      {"all", EventKind::Changed, "2.big", "fits", 5},
+                                      {"all", EventKind::Deleted, "2.big", "fits", 6}};
   CHECK(r.seen == expected);
 }
 

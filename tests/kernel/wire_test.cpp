@@ -687,7 +687,8 @@ TEST_CASE("wire: an oversized frame is read from its head and answered", "[unit]
     const auto& result = std::get<WriteResult>(byOwner.body);
     CHECK(result.request == 77);
     CHECK(result.status == static_cast<int>(ErrorCode::TooLarge) + 1);
-    CHECK(result.message == "data is 5000 bytes; this PEIS accepts at most 100 (see --peis-max-data)");
+    CHECK(result.message ==
+          "data is 5000 bytes; this PEIS accepts at most 100 (see --peis-max-data)");
     checkRoutedRoundTrip(byOwner);
 
     const auto byRelay = answerOversize(*oversize, 5, kSmall);

@@ -665,12 +665,11 @@ RoutedMessage answerOversize(const Oversize& o, PeisId self, std::size_t maxData
     WriteResult result;
     result.request = o.request;
     result.status = static_cast<std::uint8_t>(static_cast<int>(ErrorCode::TooLarge) + 1);
-    result.message =
-        "data is " + std::to_string(o.dataBytes) + " bytes; " +
-        (forMe ? std::string("this PEIS")
-               : "PEIS " + std::to_string(self) + " on the route to PEIS " +
-                     std::to_string(o.envelope.destination)) +
-        " accepts at most " + std::to_string(limit) + " (see --peis-max-data)";
+    result.message = "data is " + std::to_string(o.dataBytes) + " bytes; " +
+                     (forMe ? std::string("this PEIS")
+                            : "PEIS " + std::to_string(self) + " on the route to PEIS " +
+                                  std::to_string(o.envelope.destination)) +
+                     " accepts at most " + std::to_string(limit) + " (see --peis-max-data)";
     return RoutedMessage{Envelope{self, o.envelope.source, kDefaultTtl}, std::move(result)};
   }
   TupleWithheld withheld{o.ownerIncarnation, self, limit, o.dataBytes, o.tuple};
