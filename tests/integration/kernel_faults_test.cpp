@@ -34,6 +34,7 @@
 using namespace std::chrono_literals;
 using peis::ErrorCode;
 using peis::PeisId;
+using peis::test::cliArgs;
 using peis::test::HasCode;
 using peis::test::Process;
 using peis::test::uniqueEcology;
@@ -42,14 +43,6 @@ using peis::test::waitFor;
 namespace {
 
 constexpr auto kDeadline = std::chrono::milliseconds(20s);
-
-std::vector<std::string> cliArgs(const std::string& ecology, std::vector<std::string> args) {
-  std::vector<std::string> argv{peis::test::peisCliPath()};
-  argv.insert(argv.end(), args.begin(), args.end());
-  argv.push_back("--peis-ecology");
-  argv.push_back(ecology);
-  return argv;
-}
 
 // A PEIS of the test process, linked only where `connect` says (no discovery)
 // or found by discovery on loopback.
