@@ -13,6 +13,13 @@ include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
 
 set(PEIS_PACKAGE_TEMPLATES ${CMAKE_CURRENT_LIST_DIR})
+
+# A shared build's installed programs find the libraries from where they are
+# (the prefix may be moved); a static build's need nothing.
+if(BUILD_SHARED_LIBS AND NOT DEFINED CMAKE_INSTALL_RPATH)
+  file(RELATIVE_PATH bin_to_lib /${CMAKE_INSTALL_BINDIR} /${CMAKE_INSTALL_LIBDIR})
+  set(CMAKE_INSTALL_RPATH "$ORIGIN/${bin_to_lib}")
+endif()
 # Before 1.0 a minor version may change the API: a consumer asking for 0.1
 # accepts 0.1.x only.
 set(PEIS_PACKAGE_COMPATIBILITY SameMinorVersion)

@@ -12,18 +12,20 @@ namespace {
 constexpr std::string_view kBegin = "<!-- layering:begin -->";
 constexpr std::string_view kEnd = "<!-- layering:end -->";
 
-const std::set<std::string> kCategories = {"c",      "c++",    "system", "boost",  "yaml-cpp", "sqlite",
-                                           "catch2", "eigen",  "opencv", "simavr", "avr-libc"};
+const std::set<std::string> kCategories = {"c",        "c++",    "system",  "boost",
+                                           "yaml-cpp", "sqlite", "catch2",  "eigen",
+                                           "opencv",   "simavr", "avr-libc"};
 
 // The C standard library's headers (C99 and C11).
 const std::set<std::string> kCHeaders = {
-    "assert.h", "complex.h", "ctype.h",    "errno.h",     "fenv.h",        "float.h",
-    "inttypes.h", "iso646.h", "limits.h",  "locale.h",    "math.h",        "setjmp.h",
-    "signal.h", "stdalign.h", "stdarg.h",  "stdatomic.h", "stdbool.h",     "stddef.h",
-    "stdint.h", "stdio.h",   "stdlib.h",   "stdnoreturn.h", "string.h",    "tgmath.h",
-    "threads.h", "time.h",   "uchar.h",    "wchar.h",     "wctype.h"};
+    "assert.h",   "complex.h",  "ctype.h",  "errno.h",       "fenv.h",    "float.h",
+    "inttypes.h", "iso646.h",   "limits.h", "locale.h",      "math.h",    "setjmp.h",
+    "signal.h",   "stdalign.h", "stdarg.h", "stdatomic.h",   "stdbool.h", "stddef.h",
+    "stdint.h",   "stdio.h",    "stdlib.h", "stdnoreturn.h", "string.h",  "tgmath.h",
+    "threads.h",  "time.h",     "uchar.h",  "wchar.h",       "wctype.h"};
 
 // The C++ standard library's headers (C++20), the <cxxx> forms included.
+// clang-format off
 const std::set<std::string> kCppHeaders = {
     "algorithm", "any", "array", "atomic", "barrier", "bit", "bitset", "cassert", "cctype",
     "cerrno", "cfenv", "cfloat", "charconv", "chrono", "cinttypes", "climits", "clocale", "cmath",
@@ -38,6 +40,7 @@ const std::set<std::string> kCppHeaders = {
     "streambuf", "string", "string_view", "syncstream", "system_error", "thread", "tuple",
     "type_traits", "typeindex", "typeinfo", "unordered_map", "unordered_set", "utility",
     "valarray", "variant", "vector", "version"};
+// clang-format on
 
 std::string trim(std::string_view s) {
   const auto first = s.find_first_not_of(" \t\r");
@@ -236,8 +239,7 @@ std::vector<Violation> check(const std::vector<Rule>& rules, const SourceTree& t
         if (!rule->outside.count(category))
           out.push_back({path, include.line,
                          shown + " is " + category + ", which " + rule->folders.front() +
-                             " may not include (row at line " + std::to_string(rule->line) +
-                             ")"});
+                             " may not include (row at line " + std::to_string(rule->line) + ")"});
         continue;
       }
       // Several files of that name: one of the row's own wins (the compiler

@@ -76,9 +76,9 @@ int main(int argc, char** argv) {
       std::cout << v.file << ":" << v.line << ": " << v.message << "\n";
     std::size_t includes = 0;
     for (const auto& [path, text] : tree) includes += peis::layering::includesOf(text).size();
-    std::cout << "peis-layering-check: " << tree.size() << " files, " << includes
-              << " includes, " << table.size() << " rows of " << rules.string() << ": "
-              << violations.size() << " violation(s)\n";
+    std::cout << "peis-layering-check: " << tree.size() << " files, " << includes << " includes, "
+              << table.size() << " rows of " << rules.string() << ": " << violations.size()
+              << " violation(s)\n";
     return violations.empty() ? 0 : 1;
   } catch (const peis::layering::RulesError& e) {
     std::cerr << "peis-layering-check: " << rules.string() << ": " << e.what() << "\n";

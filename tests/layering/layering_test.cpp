@@ -104,8 +104,7 @@ TEST_CASE("outside headers fall into their library's category", "[unit]") {
   CHECK(categoryOf({"sim_avr.h", true}) == "simavr");
 }
 
-TEST_CASE("a folder may use its own files, the folders of its row and its categories",
-          "[unit]") {
+TEST_CASE("a folder may use its own files, the folders of its row and its categories", "[unit]") {
   CHECK(checkWith("meta/planner.cpp",
                   "#include <peis/kernel.h>\n#include \"peis/component.h\"\n#include <map>\n"
                   "#include \"planner.h\"\n#include <unistd.h>\n")

@@ -14,7 +14,7 @@
 set -euo pipefail
 build=$1 source=$2 work=$3 cxx=$4 generator=$5
 
-step() { printf '== %s\n' "$*"; }
+step() { printf '== [%3ss] %s\n' "$SECONDS" "$*"; }
 fail() {
   printf 'package test: %s\n' "$*" >&2
   exit 1
@@ -47,8 +47,11 @@ configure() {
   local src=$1 bin=$2 in=$3
   shift 3
   cmake -S "$src" -B "$bin" -G "$generator" -DCMAKE_CXX_COMPILER="$cxx" \
-    -DCMAKE_PREFIX_PATH="$in" -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF "$@"
+    -DCMAKE_CXX_COMPILER_LAUNCHER="$launcher" -DCMAKE_PREFIX_PATH="$in" \
+    -DCMAKE_FIND_USE_PACKAGE_REGISTRY=OFF "$@"
 }
+# ccache (as the main build uses it) only saves time: it compiles the same.
+launcher=$(command -v ccache || true)
 
 step "every installed header compiles alone against the installed tree"
 configure "$source/tests/package/headers" "$work/headers" "$prefix" -DPEIS_EXPECTED_PREFIX="$prefix" \
@@ -95,9 +98,14 @@ lamp=$work/examples/peis-example-lamp
 step "lamp.cpp built with pkg-config"
 export PKG_CONFIG_PATH=$pc_dir
 flags=$(pkg-config --cflags --libs peis-component) || fail "pkg-config does not know peis-component"
+# A shared build (BUILD_SHARED_LIBS=ON): the program finds the libraries by
+# its run path, as a packaged one would by the system's library path.
+if [ -n "$(find "$prefix" -name 'libpeis-kernel.so*' -print -quit)" ]; then
+  flags="$flags -Wl,-rpath,$(pkg-config --variable=libdir peis-kernel)"
+fi
 echo "pkg-config --cflags --libs peis-component: $flags"
 # shellcheck disable=SC2086  # the flags are words
-"$cxx" -std=c++20 "$source/components/examples/lamp.cpp" $flags -o "$work/lamp-pkgconfig" ||
+$launcher "$cxx" -std=c++20 "$source/components/examples/lamp.cpp" $flags -o "$work/lamp-pkgconfig" ||
   fail "lamp.cpp did not build with pkg-config's flags"
 
 step "both programs answer --help"
