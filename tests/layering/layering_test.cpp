@@ -78,7 +78,7 @@ TEST_CASE("a broken table is an error naming its line", "[unit]") {
       Contains("must end with '/'"));
 }
 
-TEST_CASE("include lines are found however they are spaced; computed ones are skipped", "[unit]") {
+TEST_CASE("include lines are found however spaced, and computed ones are skipped", "[unit]") {
   const auto found = includesOf(
       "#include \"a.h\"\n  #  include <b/c.hpp>\n// #include \"not.h\"\n#include MACRO\n"
       "#include \"d.h\" /* why */\n");
