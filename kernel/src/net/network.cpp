@@ -188,6 +188,10 @@ class Network::Impl {
     SteadyClock::time_point arrived;
   };
   std::deque<Held> held_;
+  // Answers to frames over the data limit (answerOversize) for a PEIS with
+  // no route yet (its first frames can be faster than its route, as above):
+  // sent once it has one, dropped after kHoldFor.
+  std::deque<std::pair<wire::RoutedMessage, SteadyClock::time_point>> heldAnswers_;
   // Messages for this PEIS, handed over together once a read is parsed.
   std::vector<wire::RoutedMessage> inbox_;
   // Two buffers take turns so a stream of reads allocates no new vector.
@@ -789,8 +793,10 @@ bool Network::Impl::answerOversize(const std::shared_ptr<Link>& link, std::strin
   auto answer = wire::answerOversize(*oversize, self_, config_.maxDataBytes);
   if (answer.envelope.destination == self_) {
     inbox_.push_back(std::move(answer));  // a TupleWithheld in place of the owner's update
-  } else {
+  } else if (routes_.count(answer.envelope.destination)) {
     forward(answer.envelope.destination, wire::encodeFrame(answer));
+  } else {
+    heldAnswers_.emplace_back(std::move(answer), SteadyClock::now());
   }
   return true;
 }
@@ -953,6 +959,17 @@ void Network::Impl::forwardFrame(std::string_view frame, const wire::Envelope& e
 // Frames held for an unknown source: process those whose source is now
 // routable, drop those older than kHoldFor (counted as unroutable).
 void Network::Impl::retryHeld() {
+  for (auto n = heldAnswers_.size(); n > 0; --n) {
+    auto [answer, arrived] = std::move(heldAnswers_.front());
+    heldAnswers_.pop_front();
+    if (routes_.count(answer.envelope.destination)) {
+      forward(answer.envelope.destination, wire::encodeFrame(answer));
+    } else if (SteadyClock::now() - arrived > kHoldFor) {
+      ++counters_.unroutable;
+    } else {
+      heldAnswers_.emplace_back(std::move(answer), arrived);
+    }
+  }
   if (held_.empty()) return;
   const auto now = SteadyClock::now();
   std::deque<Held> keep;
