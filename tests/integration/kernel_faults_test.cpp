@@ -424,7 +424,7 @@ TEST_CASE("remote writes fail with their reason, not with a time-out", "[integra
   const auto ecology = uniqueEcology("write-errors");
   peis::Kernel owner(options(ecology, "owner"));
   auto writerOptions = options(ecology, "writer", {localhost(owner)});
-  writerOptions.writeTimeout = 4000ms;
+  writerOptions.writeTimeout = 8000ms;  // the owner answers a held write after 6 s
   peis::Kernel writer(writerOptions);
   REQUIRE(waitFor([&] { return reaches(writer, owner.id()); }, kDeadline));
 
