@@ -17,12 +17,13 @@
 
 #include "key_mapping.h"
 #include "key_registry.h"
-#include "log.h"
 #include "peis/error.h"
 #include "peis/key.h"
+#include "peis/log.h"
 #include "peis/pattern.h"
 #include "radio_link.h"
-#include "tiny_kernel.h"
+#include "tiny_timing.h"
+#include "tiny_tuple.h"
 
 namespace peis::bridge {
 namespace {
@@ -40,6 +41,16 @@ std::uint32_t msOf(Timestamp t) {
   return t == kNoTime ? 0u
                       : static_cast<std::uint32_t>(
                             std::chrono::duration_cast<milliseconds>(t.time_since_epoch()).count());
+}
+
+// A full tuple's ts_expire as a tiny lifetime: ms from now (computed in ms,
+// so no stamp overflows), 0 ("never") when further off than the u32 field
+// holds (49.7 days), -1 when it has passed.
+long long tinyLifetime(Timestamp expire) {
+  using std::chrono::duration_cast;
+  const auto left = duration_cast<milliseconds>(expire.time_since_epoch()).count() -
+                    duration_cast<milliseconds>(systemNow().time_since_epoch()).count();
+  return left <= 0 ? -1 : left > 0xFFFFFFFFLL ? 0 : left;
 }
 
 std::vector<std::uint16_t> subKeys(const tiny_key& key) {
@@ -416,8 +427,8 @@ struct TinyBridge::Impl {
         writer >= 1 && writer <= 0xFFFE ? static_cast<std::uint16_t>(writer) : config.tinyId;
     write.request.ts_user = msOf(t.ts_user);
     if (t.ts_expire != kNoTime) {
-      const auto left = std::chrono::duration_cast<milliseconds>(t.ts_expire - systemNow()).count();
-      write.request.ts_expire = static_cast<std::uint32_t>(std::max<long long>(left, 1));
+      const auto left = tinyLifetime(t.ts_expire);
+      write.request.ts_expire = left == 0 ? 0u : static_cast<std::uint32_t>(std::max(left, 1LL));
     }
     if (t.data.size() > 255 ||
         tiny_tuple_set_key_data(&write.request, &*key, t.data.data(),
@@ -522,8 +533,8 @@ struct TinyBridge::Impl {
     out.ts_write = msOf(t.ts_write);
     out.ts_user = msOf(t.ts_user);
     if (t.ts_expire != kNoTime) {
-      const auto left = std::chrono::duration_cast<milliseconds>(t.ts_expire - systemNow()).count();
-      if (left <= 0) return;
+      const auto left = tinyLifetime(t.ts_expire);
+      if (left < 0) return;
       out.ts_expire = static_cast<std::uint32_t>(left);
     }
     std::uint8_t buf[TINY_FRAME_MAX];

@@ -16,6 +16,7 @@
 
 #include "kernel_impl.h"
 #include "log.h"
+#include "saturating_time.h"
 
 namespace peis {
 namespace asio = boost::asio;
@@ -289,7 +290,7 @@ std::optional<Tuple> Kernel::get(PeisId owner, std::string_view key,
                 "a blocking get on the kernel thread (in a callback) would stop the kernel; "
                 "register a callback instead");
   }
-  const auto deadline = std::chrono::steady_clock::now() + wait;
+  const auto deadline = deadlineAfter(std::chrono::steady_clock::now(), wait);
   // A remote value arrives by subscription: hold one while waiting.
   std::optional<SubscriptionHandle> subscription;
   if (owner != id()) {
@@ -305,13 +306,16 @@ std::optional<Tuple> Kernel::get(PeisId owner, std::string_view key,
   MutexLock lock(impl_->mu);
   ++impl_->waiters;
   TuplePtr tuple;
+  std::optional<TupleSpace::Withheld> withheld;  // a value that will not come
   impl_->changed.wait_until(lock, deadline, [&] {
     impl_->mu.assertHeld();  // wait_until holds it again when it asks
     tuple = impl_->space.get(owner, key);
-    return tuple != nullptr;
+    if (!tuple) withheld = impl_->space.withheld(owner, key);
+    return tuple != nullptr || withheld.has_value();
   });
   --impl_->waiters;
   lock.unlock();
+  if (!tuple && withheld) throw Error(ErrorCode::TooLarge, withheld->reason(id()));
   if (!tuple) return std::nullopt;
   return *tuple;
 }
@@ -472,10 +476,11 @@ std::string Kernel::run() {
 
 bool Kernel::runFor(std::chrono::milliseconds limit) {
   MutexLock lock(impl_->quitMu);
-  return impl_->quitCv.wait_for(lock, limit, [&] {
-    impl_->quitMu.assertHeld();
-    return impl_->quitting;
-  });
+  return impl_->quitCv.wait_until(lock, deadlineAfter(std::chrono::steady_clock::now(), limit),
+                                  [&] {
+                                    impl_->quitMu.assertHeld();
+                                    return impl_->quitting;
+                                  });
 }
 
 void Kernel::quit(std::string reason) { impl_->requestQuit(std::move(reason)); }

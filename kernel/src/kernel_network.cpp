@@ -126,9 +126,12 @@ void Kernel::Impl::onPeerDown(PeisId peer) {
 void Kernel::Impl::holdWrite(const WriteGate& gate, PeisId source, wire::Write&& write) {
   auto held = std::make_shared<wire::Write>(std::move(write));
   auto decided = std::make_shared<std::atomic<bool>>(false);
-  WriteDecision decide = [this, source, held, decided](const std::optional<Error>& refusal) {
+  auto gateTimer = std::make_shared<asio::steady_timer>(io);  // the writer's deadline
+  WriteDecision decide = [this, source, held, decided,
+                          gateTimer](const std::optional<Error>& refusal) {
     if (decided->exchange(true)) return;
-    asio::post(io, [this, source, held, refusal] {
+    asio::post(io, [this, source, held, refusal, gateTimer] {
+      gateTimer->cancel();
       MutexLock lock(mu);
       if (refusal) {
         replication.refuseWrite(source, *held, *refusal);
@@ -145,7 +148,19 @@ void Kernel::Impl::holdWrite(const WriteGate& gate, PeisId source, wire::Write&&
     decide(Error(ErrorCode::Refused, std::string("write gate failed: ") + e.what()));
     return;
   }
-  if (!holding) decide(std::nullopt);
+  if (!holding) return decide(std::nullopt);
+  if (held->waitMs == 0) return;
+  // Answer while the writer still waits, with the reason, rather than let
+  // its deadline pass (docs/protocol.md §12).
+  const auto hold = std::chrono::milliseconds(held->waitMs) * 3 / 4;
+  gateTimer->expires_after(hold);
+  gateTimer->async_wait([decide, hold, waitMs = held->waitMs](const boost::system::error_code& ec) {
+    if (ec) return;
+    decide(Error(ErrorCode::Timeout, "its write gate held the write for " +
+                                         std::to_string(hold.count()) +
+                                         " ms without a decision (the writer waits " +
+                                         std::to_string(waitMs) + " ms)"));
+  });
 }
 
 // Messages that arrived together (one socket read) are applied under one
@@ -177,6 +192,8 @@ void Kernel::Impl::onMessages(std::vector<wire::RoutedMessage>&& messages) {
               }
             } else if constexpr (std::is_same_v<T, wire::TupleDeleted>) {
               replication.onDeleted(source, body);
+            } else if constexpr (std::is_same_v<T, wire::TupleWithheld>) {
+              replication.onWithheld(std::move(body));
             } else if constexpr (std::is_same_v<T, wire::Write>) {
               if (writeGate && body.op == wire::WriteOp::Set && body.tuple.owner == id) {
                 gated.emplace_back(source, std::move(body));
@@ -224,7 +241,8 @@ void Kernel::Impl::remoteWrite(wire::WriteOp op, PeisId owner, std::string_view 
   wire::Write write;
   write.op = op;
   write.ifSeqno = ifSeqno;
-  write.ttlMicros = writeOptions.ttl.count();
+  write.ttlMicros = std::max<std::int64_t>(writeOptions.ttl.count(), 0);    // <= 0: never expires
+  write.waitMs = static_cast<std::uint32_t>(options.writeTimeout.count());  // validated to fit
   write.tuple.owner = owner;
   write.tuple.creator = id;
   write.tuple.key = std::string(key);

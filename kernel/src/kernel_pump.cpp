@@ -5,6 +5,7 @@
 // tuples (docs/architecture.md, "The kernel thread").
 #include "kernel_impl.h"
 #include "log.h"
+#include "saturating_time.h"
 
 namespace peis {
 namespace asio = boost::asio;
@@ -184,7 +185,7 @@ void Kernel::Impl::noteExpiry(const Tuple& tuple) {
 void Kernel::Impl::scheduleExpiry(Timestamp at) {  // kernel thread
   if (scheduledExpiry != kNoTime && scheduledExpiry <= at) return;
   scheduledExpiry = at;
-  expiryTimer.expires_after(at - systemNow());
+  expiryTimer.expires_after(timerWait(at, systemNow()));  // far-off: fires early, re-armed
   expiryTimer.async_wait([this](const boost::system::error_code& ec) {
     if (ec) return;  // re-scheduled earlier or shutting down
     scheduledExpiry = kNoTime;

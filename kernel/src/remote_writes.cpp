@@ -41,7 +41,9 @@ void RemoteWrites::complete(std::uint64_t request, const std::optional<Error>& e
 
 void RemoteWrites::onResult(PeisId source, const wire::WriteResult& result) {
   auto pending = pending_.find(result.request);
-  if (pending == pending_.end() || pending->second.owner != source) return;
+  // A PEIS on the route may refuse the write for the owner (a frame over
+  // its data limit); only the owner can accept it.
+  if (pending == pending_.end() || (pending->second.owner != source && result.status == 0)) return;
   if (result.status == 0) return complete(result.request, std::nullopt, result.seqno);
   const auto code = static_cast<ErrorCode>(
       std::min<int>(result.status - 1, static_cast<int>(ErrorCode::Stopped)));

@@ -31,7 +31,8 @@ class RemoteWrites {
   std::uint64_t add(PeisId owner, WriteDone done, std::chrono::milliseconds timeout);
   // Completes a pending request (nothing if it completed already).
   void complete(std::uint64_t request, const std::optional<Error>& error, std::uint64_t seqno);
-  // The owner's answer: completes the request if `source` is its owner.
+  // An answer: completes the request if `source` is its owner (or refuses
+  // it, as a PEIS on the route may).
   void onResult(PeisId source, const wire::WriteResult& result);
   // Fails every request pending at `owner` (it is gone).
   void failOwner(PeisId owner, const Error& error);

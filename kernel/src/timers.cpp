@@ -4,6 +4,8 @@
 #include <boost/asio/post.hpp>
 #include <string>
 
+#include "saturating_time.h"
+
 namespace peis {
 
 TimerTable::TimerTable(boost::asio::io_context& io, std::function<void(std::string_view)> threw)
@@ -27,7 +29,7 @@ TimerTable::Handle TimerTable::add(std::chrono::milliseconds delay,
 }
 
 void TimerTable::start(const std::shared_ptr<Timer>& timer, std::chrono::milliseconds delay) {
-  timer->timer->expires_after(delay);
+  timer->timer->expires_after(saturatingCast<std::chrono::steady_clock::duration>(delay));
   timer->timer->async_wait([this, timer](const boost::system::error_code& ec) {
     if (ec || !timer->active) return;
     if (timer->period.count() == 0) {

@@ -11,7 +11,7 @@
 #include <thread>
 
 #include "peis/kernel.h"
-#include "support/raw_peer.h"
+#include "raw_peer.h"
 #include "support/wait_for.h"
 
 using namespace std::chrono_literals;

@@ -13,7 +13,7 @@
 
 #include "net/wire.h"
 #include "peis/peis.h"
-#include "support/raw_peer.h"
+#include "raw_peer.h"
 #include "support/wait_for.h"
 
 namespace {

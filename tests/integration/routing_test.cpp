@@ -14,8 +14,8 @@
 #include <vector>
 
 #include "peis/kernel.h"
+#include "raw_peer.h"
 #include "support/process.h"
-#include "support/raw_peer.h"
 #include "support/wait_for.h"
 
 using namespace std::chrono_literals;
@@ -123,7 +123,9 @@ TEST_CASE("back-to-back peis commands all succeed and leave no ghosts", "[integr
   std::vector<std::pair<std::optional<int>, std::string>> results;
   std::thread commands([&] {
     for (int i = 0; i < 20; ++i) {
-      Process get(cli(ecology, {"get", "n2.x"}));
+      // A loaded test machine may take longer than the default 2 s to learn
+      // the names; the point here is that every call succeeds.
+      Process get(cli(ecology, {"get", "n2.x", "--wait", "20"}));
       const auto status = get.wait(30s);
       results.emplace_back(status, get.describe());
     }

@@ -152,7 +152,7 @@ void Link::write() {
     if (chunk.tail) outBuffers_.emplace_back(asio::buffer(chunk.tail->data));
   }
   writing_ = true;
-  writingSince_ = SteadyClock::now();
+  writingSince_ = lastSent_ = SteadyClock::now();  // what is queued goes out now
   asio::async_write(socket_, outBuffers_,
                     [self = shared_from_this()](const boost::system::error_code& ec, std::size_t) {
                       self->writing_ = false;
@@ -220,8 +220,24 @@ void Link::makeReadRoom() {
 void Link::parse() {
   while (!closed_) {
     const std::size_t available = inEnd_ - inPos_;
+    if (skip_ > 0) {  // the rest of an oversized frame, already answered
+      const auto n = std::min(skip_, available);
+      inPos_ += n;
+      skip_ -= n;
+      if (skip_ > 0) break;
+      continue;
+    }
     if (available < wire::kFrameHeaderBytes) break;
     const auto length = wire::frameLength(std::string_view(in_.get() + inPos_, available));
+    if (length > maxFrameBytes_ && length <= wire::kLargestFrameBytes) {
+      // Over this PEIS's limit, not the protocol's: answer it from its head.
+      const auto head = std::min<std::size_t>(length, wire::kOversizeHeadBytes);
+      if (available < wire::kFrameHeaderBytes + head) break;
+      const auto frame = std::string_view(in_.get() + inPos_ + wire::kFrameHeaderBytes, head);
+      inPos_ += wire::kFrameHeaderBytes + head;
+      skip_ = length - head;
+      if (handler_.onOversize(*this, frame)) continue;
+    }
     if (length == 0 || length > maxFrameBytes_) {
       ++counters_.malformedFrames;
       ++counters_.garbagePeersDisconnected;

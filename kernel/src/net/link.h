@@ -29,6 +29,10 @@ class LinkHandler {
   // One whole frame (type and body, without the length prefix); it lives
   // only for the call.
   virtual void onFrame(Link& link, std::string_view frame) = 0;
+  // The head (the first kOversizeHeadBytes) of a frame longer than this
+  // PEIS's limit but within the protocol's: the rest is skipped. True when
+  // answered (docs/protocol.md §2.1); false makes it a framing error.
+  virtual bool onOversize(Link& link, std::string_view head) = 0;
   // Every frame of one socket read was handed over.
   virtual void onReadDone(Link& link) = 0;
   // A write finished (the link's backlog() went down).
@@ -68,6 +72,8 @@ class Link : public std::enable_shared_from_this<Link> {
   std::size_t backlog() const { return inFlight_ + queued_; }
   // Bytes have arrived that are not read yet (a sign of life).
   bool bytesWaiting();
+  // Part of a frame has arrived and the rest has not (a big frame in transit).
+  bool midFrame() const { return inEnd_ > inPos_ || skip_ > 0; }
   bool closed() const { return closed_; }
   // How long the write under way has been waiting for the peer to take it
   // (zero when none is).
@@ -82,6 +88,7 @@ class Link : public std::enable_shared_from_this<Link> {
   bool established_ = false;
   wire::Hello peer_;  // the peer's Hello, once established_
   SteadyClock::time_point lastHeard_;
+  SteadyClock::time_point lastSent_;  // the last write started
   SteadyClock::time_point establishedAt_;
   int malformed_ = 0;
   // The last source whose frames passed the Network's source checks on this
@@ -117,6 +124,7 @@ class Link : public std::enable_shared_from_this<Link> {
   std::size_t inCapacity_ = 0;
   std::size_t readRoom_;
   std::size_t inPos_ = 0, inEnd_ = 0;
+  std::size_t skip_ = 0;          // bytes of an oversized frame still to be skipped
   std::vector<Chunk> outChunks_;  // being written
   std::string spareChunk_;        // the memory of a written chunk, for the next
   std::vector<boost::asio::const_buffer> outBuffers_;

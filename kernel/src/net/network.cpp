@@ -85,6 +85,10 @@ class Network::Impl final : public LinkHandler {
 
   // LinkHandler
   void onFrame(Link& link, std::string_view frame) override;
+  // A routed frame whose data is over this PEIS's limit (its whole frame or
+  // its first kOversizeHeadBytes): answered, not dropped (protocol.md §2.1).
+  // False when it is not one (malformed).
+  bool onOversize(Link& link, std::string_view head) override;
   void onReadDone(Link&) override { flushInbox(); }
   void onWritten(Link& link) override;
   void onClosed(Link& link, const std::string& reason) override;
@@ -175,6 +179,10 @@ class Network::Impl final : public LinkHandler {
     SteadyClock::time_point arrived;
   };
   std::deque<Held> held_;
+  // Answers to frames over the data limit (onOversize) for a PEIS with no
+  // route yet (its first frames can be faster than its route, as above):
+  // sent once it has one, dropped after kHoldFor.
+  std::deque<std::pair<wire::RoutedMessage, SteadyClock::time_point>> heldAnswers_;
   // Messages for this PEIS, handed over together once a read is parsed. Two
   // buffers take turns so a stream of reads allocates no new vector.
   std::vector<wire::RoutedMessage> inbox_;
@@ -366,6 +374,7 @@ void Network::Impl::onFrame(Link& link, std::string_view frame) {
     auto& message = inbox_.emplace_back();
     if (!wire::decodeRouted(frame, config_.maxDataBytes, message, decodeError_)) {
       inbox_.pop_back();
+      if (onOversize(link, frame)) return;
       return onMalformed(link, decodeError_);
     }
     if (!link.established_) {
@@ -395,6 +404,20 @@ void Network::Impl::onFrame(Link& link, std::string_view frame) {
   } else if (auto* taken = std::get_if<wire::IdTaken>(&message)) {
     if (taken->id == self_ && taken->incarnation == incarnation_) collision(0);
   }
+}
+
+bool Network::Impl::onOversize(Link& link, std::string_view head) {
+  auto oversize = wire::decodeOversize(head, config_.maxDataBytes);
+  if (!oversize || !link.established_) return false;
+  auto answer = wire::answerOversize(*oversize, self_, config_.maxDataBytes);
+  if (answer.envelope.destination == self_) {
+    inbox_.push_back(std::move(answer));  // a TupleWithheld in place of the owner's update
+  } else if (table_.contains(answer.envelope.destination)) {
+    forward(answer.envelope.destination, wire::encodeFrame(answer));
+  } else {
+    heldAnswers_.emplace_back(std::move(answer), SteadyClock::now());
+  }
+  return true;
 }
 
 void Network::Impl::onHello(Link& link, const wire::Hello& hello) {
@@ -509,7 +532,11 @@ void Network::Impl::pingLoop() {
       // Ping tells the peer we live, its Pong tells us. A link busy in
       // one direction costs one Ping a period, an idle one a single
       // exchange (whichever end asks first), not one from each end.
-      if (!link->established_ || now - link->lastHeard_ < config_.pingPeriod) continue;
+      // So does one that receives a big frame and sends nothing: the peer
+      // sending it hears nothing else, and its own Ping waits behind the frame.
+      const bool quiet = now - link->lastHeard_ >= config_.pingPeriod ||
+                         (link->midFrame() && now - link->lastSent_ >= config_.pingPeriod);
+      if (!link->established_ || !quiet) continue;
       sendLinkMessage(*link,
                       wire::Ping{static_cast<std::uint64_t>(now.time_since_epoch().count())});
     }
@@ -730,6 +757,17 @@ void Network::Impl::forwardFrame(std::string_view frame, const wire::Envelope& e
 // Frames held for an unknown source: process those whose source is now
 // routable, drop those older than kHoldFor (counted as unroutable).
 void Network::Impl::retryHeld() {
+  for (auto n = heldAnswers_.size(); n > 0; --n) {
+    auto [answer, arrived] = std::move(heldAnswers_.front());
+    heldAnswers_.pop_front();
+    if (table_.contains(answer.envelope.destination)) {
+      forward(answer.envelope.destination, wire::encodeFrame(answer));
+    } else if (SteadyClock::now() - arrived > kHoldFor) {
+      ++counters_.unroutable;
+    } else {
+      heldAnswers_.emplace_back(std::move(answer), arrived);
+    }
+  }
   if (held_.empty()) return;
   const auto now = SteadyClock::now();
   std::deque<Held> keep;

@@ -1,5 +1,5 @@
 // RawPeer: a hand-driven TCP connection to a PEIS; see raw_peer.h.
-#include "support/raw_peer.h"
+#include "raw_peer.h"
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
