@@ -1,0 +1,109 @@
+// Triangulation of hats (triangulation.h).
+#include "tracking/triangulation.h"
+
+#include <Eigen/Dense>
+#include <cmath>
+
+namespace peis::tracking {
+
+std::optional<Fix> intersectHeight(const Sighting& s, double height, const NoiseModel& noise) {
+  if (s.camera == nullptr) return std::nullopt;
+  const auto at = [&](double u, double v, double h) { return s.camera->intersectHeight(u, v, h); };
+  const auto point = at(s.u, s.v, height);
+  if (!point) return std::nullopt;
+  // Covariance by propagating pixel and height noise through the
+  // intersection (central differences).
+  Eigen::Matrix<double, 2, 3> jacobian;
+  const double steps[3] = {0.5, 0.5, 0.01};
+  for (int k = 0; k < 3; ++k) {
+    double plus[3] = {s.u, s.v, height}, minus[3] = {s.u, s.v, height};
+    plus[k] += steps[k];
+    minus[k] -= steps[k];
+    const auto a = at(plus[0], plus[1], plus[2]), b = at(minus[0], minus[1], minus[2]);
+    if (!a || !b) return std::nullopt;
+    jacobian.col(k) = (*a - *b).head<2>() / (2 * steps[k]);
+  }
+  const Eigen::Vector3d variances(noise.pixelSigma * noise.pixelSigma,
+                                  noise.pixelSigma * noise.pixelSigma,
+                                  noise.heightSigma * noise.heightSigma);
+  Fix fix;
+  fix.point = *point;
+  fix.covariance = jacobian * variances.asDiagonal() * jacobian.transpose();
+  fix.cameras = 1;
+  return fix;
+}
+
+namespace {
+
+struct Ray {
+  Eigen::Vector3d origin, direction;
+  double focal;
+};
+
+// Weighted least squares over rays plus the height prior; nullopt if singular.
+std::optional<Fix> solve(const std::vector<Ray>& rays, double height, const NoiseModel& noise) {
+  const Eigen::Matrix3d identity = Eigen::Matrix3d::Identity();
+  const Eigen::Vector3d up(0, 0, 1);
+  const double heightWeight = 1.0 / (noise.heightSigma * noise.heightSigma);
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d normal;
+  // First unweighted (each ray 1 m away), then weighted by the distances found.
+  for (int pass = 0; pass < 2; ++pass) {
+    normal = heightWeight * up * up.transpose() * (pass == 0 ? 1e-6 : 1.0);
+    Eigen::Vector3d rhs = normal * up * height;
+    for (const Ray& ray : rays) {
+      const Eigen::Matrix3d across = identity - ray.direction * ray.direction.transpose();
+      double distance = 1.0;
+      if (pass == 1) distance = std::max(0.1, ray.direction.dot(point - ray.origin));
+      const double sigma = noise.pixelSigma * distance / ray.focal;
+      const double weight = 1.0 / (sigma * sigma);
+      normal += weight * across;
+      rhs += weight * across * ray.origin;
+    }
+    Eigen::FullPivLU<Eigen::Matrix3d> lu(normal);
+    if (!lu.isInvertible() || lu.rcond() < 1e-12) return std::nullopt;
+    point = lu.solve(rhs);
+  }
+  Fix fix;
+  fix.point = point;
+  fix.covariance = normal.inverse().topLeftCorner<2, 2>();
+  fix.cameras = static_cast<int>(rays.size());
+  return fix;
+}
+
+}  // namespace
+
+std::optional<Fix> triangulate(const std::vector<Sighting>& sightings, double height,
+                               const NoiseModel& noise) {
+  std::vector<Sighting> active;
+  for (const Sighting& s : sightings)
+    if (s.camera != nullptr) active.push_back(s);
+  while (active.size() >= 2) {
+    std::vector<Ray> rays;
+    for (const Sighting& s : active)
+      rays.push_back({s.camera->position, s.camera->rayDirection(s.u, s.v),
+                      (s.camera->fx + s.camera->fy) / 2});
+    const auto fix = solve(rays, height, noise);
+    // The ray farthest from the solution (or behind its camera) goes first.
+    std::size_t worst = 0;
+    double worstResidual = -1;
+    for (std::size_t i = 0; i < rays.size(); ++i) {
+      if (!fix) break;
+      const Eigen::Vector3d offset = fix->point - rays[i].origin;
+      const double along = rays[i].direction.dot(offset);
+      const double residual = along <= 0 ? INFINITY : (offset - along * rays[i].direction).norm();
+      if (residual > worstResidual) worst = i, worstResidual = residual;
+    }
+    if (fix && worstResidual <= noise.gate) return fix;
+    if (!fix) {
+      // Degenerate geometry (parallel rays): keep the first ray alone.
+      active.resize(1);
+      break;
+    }
+    active.erase(active.begin() + static_cast<std::ptrdiff_t>(worst));
+  }
+  if (active.size() == 1) return intersectHeight(active.front(), height, noise);
+  return std::nullopt;
+}
+
+}  // namespace peis::tracking
