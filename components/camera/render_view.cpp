@@ -2,6 +2,8 @@
 #include "camera/render_view.h"
 
 #include <algorithm>
+#include <map>
+#include <mutex>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 
@@ -68,19 +70,24 @@ class Painter {
     cv::fillPoly(image_, &points, &count, 1, colour, cv::LINE_AA, kShift);
   }
 
-  void prism(const Prism& p, const cv::Scalar& top, const cv::Scalar& side) {
+  // `shade(point, factor)` gives the colour of a face lit as the floor is
+  // at `point` (just in front of a side, at a top's centre).
+  template <typename Shade>
+  void prism(const Prism& p, Shade&& shade) {
     const Eigen::Vector3d eye = c_.position;
     const std::size_t n = p.footprint.size();
     for (std::size_t i = 0; i < n; ++i) {
       const Vec2 a = p.footprint[i], b = p.footprint[(i + 1) % n];
       const Vec2 outward{b.y - a.y, a.x - b.x};
       if (outward.dot(Vec2{eye.x() - a.x, eye.y() - a.y}) <= 0) continue;  // faces away
-      fill({{a.x, a.y, p.z0}, {b.x, b.y, p.z0}, {b.x, b.y, p.z1}, {a.x, a.y, p.z1}}, side);
+      const double length = outward.norm();
+      const Vec2 front = (a + b) * 0.5 + (length > 0 ? outward * (0.05 / length) : Vec2{});
+      fill({{a.x, a.y, p.z0}, {b.x, b.y, p.z0}, {b.x, b.y, p.z1}, {a.x, a.y, p.z1}}, shade(front, 0.8));
     }
     if (eye.z() > p.z1) {
       std::vector<Eigen::Vector3d> lid;
       for (const Vec2 q : p.footprint) lid.emplace_back(q.x, q.y, p.z1);
-      fill(lid, top);
+      fill(lid, shade(sim::centroid(p.footprint), 1.0));
     }
   }
 
@@ -114,17 +121,17 @@ void drawFloor(cv::Mat& image, const sim::World& world, const sim::LightModel& l
       const auto floor = c.intersectHeight(col * step, r * step, 0);
       const double lux = floor ? light.floorIlluminance(state, {floor->x(), floor->y()})
                                : world.ambientLux;
-      gain.at<float>(r, col) = static_cast<float>(std::min(4.0, lux / spec.exposureLux));
+      gain.at<float>(r, col) = static_cast<float>(std::min(255.0 / 64, lux / spec.exposureLux));
     }
+  // In 8-bit fixed point (gain x 64, so up to 4): cheap on whole images.
+  cv::Mat gain8;
+  gain.convertTo(gain8, CV_8UC1, 64.0);
   cv::Mat full;
-  cv::resize(gain, full, cv::Size(columns * step, rows * step), 0, 0, cv::INTER_LINEAR);
+  cv::resize(gain8, full, cv::Size(columns * step, rows * step), 0, 0, cv::INTER_LINEAR);
   full = full(cv::Rect(0, 0, c.width, c.height));
   cv::Mat gain3;
   cv::merge(std::vector<cv::Mat>{full, full, full}, gain3);
-  cv::Mat floor;
-  image.convertTo(floor, CV_32FC3);
-  cv::multiply(floor, gain3, floor);
-  floor.convertTo(image, CV_8UC3);
+  cv::multiply(image, gain3, image, 1.0 / 64);
 }
 
 std::vector<Prism> solids(const sim::World& world, const sim::Scene& scene) {
@@ -189,6 +196,34 @@ std::vector<Prism> solids(const sim::World& world, const sim::Scene& scene) {
   return all;
 }
 
+// Gaussian sensor noise. Drawing 900,000 normal numbers per frame costs
+// more than the rest of the rendering, so frames take a window of a pool of
+// noise drawn once (per sigma), starting at a random offset per frame.
+void addNoise(cv::Mat& image, double sigma, std::uint64_t seed) {
+  static std::mutex mu;
+  static std::map<double, cv::Mat> pools;
+  const std::size_t need = image.total() * image.channels();
+  cv::Mat pool;
+  {
+    std::lock_guard lock(mu);
+    cv::Mat& p = pools[sigma];
+    if (p.total() < 4 * need) {
+      p.create(1, static_cast<int>(4 * need), CV_16SC1);
+      cv::RNG rng(0x5eed);
+      rng.fill(p, cv::RNG::NORMAL, 0, sigma);
+    }
+    pool = p;
+  }
+  std::mt19937_64 rng(seed);
+  const std::size_t offset = rng() % (pool.total() - need);
+  const cv::Mat noise(image.rows, image.cols, CV_16SC(image.channels()),
+                      pool.ptr<std::int16_t>() + offset);
+  cv::Mat noisy;
+  image.convertTo(noisy, CV_16SC(image.channels()));
+  noisy += noise;
+  noisy.convertTo(image, image.type());
+}
+
 }  // namespace
 
 cv::Mat renderView(const sim::World& world, const sim::LightModel& light, const sim::Scene& scene,
@@ -218,20 +253,13 @@ cv::Mat renderView(const sim::World& world, const sim::LightModel& light, const 
   Painter painter(c, image);
   for (std::size_t i : order) {
     const Prism& p = all[i];
-    const double lux = light.floorIlluminance(state, sim::centroid(p.footprint));
-    const double gain = std::min(4.0, lux / spec.exposureLux);
-    painter.prism(p, lit(p.colour, gain), lit(p.colour, gain * 0.75));
+    painter.prism(p, [&](Vec2 at, double factor) {
+      const double gain = std::min(4.0, light.floorIlluminance(state, at) / spec.exposureLux);
+      return lit(p.colour, gain * factor);
+    });
   }
 
-  if (spec.noise > 0) {
-    cv::Mat noisy;
-    image.convertTo(noisy, CV_16SC3);
-    cv::Mat noise(image.size(), CV_16SC3);
-    cv::RNG rng(seed == 0 ? 1 : seed);
-    rng.fill(noise, cv::RNG::NORMAL, 0, spec.noise);
-    noisy += noise;
-    noisy.convertTo(image, CV_8UC3);
-  }
+  if (spec.noise > 0) addNoise(image, spec.noise, seed);
   return image;
 }
 

@@ -53,7 +53,8 @@ std::vector<Target> parseTargets(std::string_view text, const std::string& origi
       targets.push_back(t);
     }
   } else if (root["robots"]) {
-    // A world file: each robot with a hat (robot height + hat thickness).
+    // A world file: each robot with a hat, seen at the middle of the hat's
+    // thickness (its top and its rim both show in the images).
     for (const auto& robot : r.list(root["robots"], "robots")) {
       if (!robot.IsMap() || !robot["hat"]) continue;
       const YAML::Node hat = robot["hat"];
@@ -61,7 +62,7 @@ std::vector<Target> parseTargets(std::string_view text, const std::string& origi
       t.name = r.name(r.required(robot, "name", "a robot"), "robot name");
       t.hue = hat["colour"] ? colourHue(r, hat["colour"]) : hueOf(220, 30, 30);
       t.height = r.number(robot, "height", 0.5, "robot height") +
-                 r.number(hat, "thickness", 0.02, "hat thickness");
+                 r.number(hat, "thickness", 0.02, "hat thickness") / 2;
       t.radius = r.number(hat, "radius", 0.1, "hat radius");
       targets.push_back(t);
     }

@@ -75,35 +75,48 @@ std::optional<Fix> solve(const std::vector<Ray>& rays, double height, const Nois
 
 std::optional<Fix> triangulate(const std::vector<Sighting>& sightings, double height,
                                const NoiseModel& noise) {
-  std::vector<Sighting> active;
+  std::vector<Ray> rays;
   for (const Sighting& s : sightings)
-    if (s.camera != nullptr) active.push_back(s);
-  while (active.size() >= 2) {
-    std::vector<Ray> rays;
-    for (const Sighting& s : active)
+    if (s.camera != nullptr)
       rays.push_back({s.camera->position, s.camera->rayDirection(s.u, s.v),
                       (s.camera->fx + s.camera->fy) / 2});
-    const auto fix = solve(rays, height, noise);
-    // The ray farthest from the solution (or behind its camera) goes first.
-    std::size_t worst = 0;
-    double worstResidual = -1;
-    for (std::size_t i = 0; i < rays.size(); ++i) {
-      if (!fix) break;
-      const Eigen::Vector3d offset = fix->point - rays[i].origin;
-      const double along = rays[i].direction.dot(offset);
-      const double residual = along <= 0 ? INFINITY : (offset - along * rays[i].direction).norm();
-      if (residual > worstResidual) worst = i, worstResidual = residual;
-    }
-    if (fix && worstResidual <= noise.gate) return fix;
-    if (!fix) {
-      // Degenerate geometry (parallel rays): keep the first ray alone.
-      active.resize(1);
-      break;
-    }
-    active.erase(active.begin() + static_cast<std::ptrdiff_t>(worst));
+  if (rays.empty()) return std::nullopt;
+  if (rays.size() == 1) {
+    for (const Sighting& s : sightings)
+      if (s.camera != nullptr) return intersectHeight(s, height, noise);
   }
-  if (active.size() == 1) return intersectHeight(active.front(), height, noise);
-  return std::nullopt;
+  // Consensus: the pair of rays whose solution most other rays agree with
+  // (then the smallest residual); a solution must lie in front of its
+  // cameras, at the hat's height, within the gate of each ray it keeps.
+  const auto agreeing = [&](const Fix& fix) {
+    std::vector<Ray> inliers;
+    double residuals = 0;
+    for (const Ray& ray : rays) {
+      const Eigen::Vector3d offset = fix.point - ray.origin;
+      const double along = ray.direction.dot(offset);
+      const double residual = (offset - along * ray.direction).norm();
+      if (along > 0 && residual <= noise.gate) {
+        inliers.push_back(ray);
+        residuals += residual;
+      }
+    }
+    return std::make_pair(inliers, residuals);
+  };
+  std::vector<Ray> best;
+  double bestResiduals = INFINITY;
+  for (std::size_t i = 0; i < rays.size(); ++i)
+    for (std::size_t j = i + 1; j < rays.size(); ++j) {
+      const auto fix = solve({rays[i], rays[j]}, height, noise);
+      if (!fix || std::abs(fix->point.z() - height) > noise.gate) continue;
+      auto [inliers, residuals] = agreeing(*fix);
+      if (inliers.size() < 2) continue;
+      if (inliers.size() > best.size() || (inliers.size() == best.size() && residuals < bestResiduals)) {
+        best = std::move(inliers);
+        bestResiduals = residuals;
+      }
+    }
+  if (best.size() < 2) return std::nullopt;  // the cameras disagree: no way to tell who is right
+  return solve(best, height, noise);
 }
 
 }  // namespace peis::tracking

@@ -35,8 +35,9 @@ struct Fix {
 
 // Ground-plane (hat-plane) intersection of one sighting.
 std::optional<Fix> intersectHeight(const Sighting& sighting, double height, const NoiseModel& noise);
-// Two or more sightings; rays that disagree beyond the gate are dropped
-// (the worst first). Falls back to one ray when only one is left.
+// Any number of sightings: none gives nothing, one the height-plane fix;
+// with two or more, the largest set of rays that agree within the gate (found
+// from every pair) is solved together; if no two agree, nothing.
 std::optional<Fix> triangulate(const std::vector<Sighting>& sightings, double height,
                                const NoiseModel& noise);
 

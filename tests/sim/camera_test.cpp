@@ -6,6 +6,7 @@
 #include "camera/calibration.h"
 #include "camera/image_tuple.h"
 #include "camera/render_view.h"
+#include "common/yaml_reader.h"
 #include "peis/error.h"
 #include "sim/world/scene.h"
 #include "support/temp_dir.h"

@@ -57,23 +57,23 @@ TEST_CASE("a small world parses with defaults", "[unit]") {
 
 TEST_CASE("broken world files name the file, the line and the problem", "[unit]") {
   using peis::test::boxWorld;
-  CHECK_THAT(errorOf("name: [unclosed\n"), StartsWith("home.yaml:1: not valid YAML"));
+  CHECK_THAT(errorOf("name: [unclosed\n"), StartsWith("home.yaml:2: not valid YAML"));
   CHECK_THAT(errorOf("- a\n- b\n"), StartsWith("home.yaml:1: a world file must be a mapping"));
   CHECK_THAT(errorOf(boxWorld("", "colour_of_sky: blue\n")),
              StartsWith("home.yaml:12: unknown key 'colour_of_sky' in the world file"));
   CHECK_THAT(errorOf("size: [1, 1]\n"), Contains("the world file needs 'name'"));
-  // The robot is line 12 of boxWorld.
+  // The first robot is line 13 of boxWorld.
   CHECK_THAT(errorOf(boxWorld("  - {name: r1, pose: [7, 1, 0]}\n")),
-             StartsWith("home.yaml:12: robot r1 pose (7, 1) is outside the map [0, 4] x [0, 3]"));
+             StartsWith("home.yaml:13: robot r1 pose (7, 1) is outside the map [0, 4] x [0, 3]"));
   CHECK_THAT(errorOf(boxWorld("  - {name: r1, pose: [3, 1.5, 0]}\n")),
-             StartsWith("home.yaml:12: robot 'r1' starts inside furniture 'box'"));
+             StartsWith("home.yaml:13: robot 'r1' starts inside furniture 'box'"));
   CHECK_THAT(errorOf(boxWorld("  - {name: r1, pose: [0.1, 1.5, 0]}\n")),
-             StartsWith("home.yaml:12: robot 'r1' starts inside a wall"));
-  CHECK_THAT(errorOf(boxWorld(kRobot + kRobot)), StartsWith("home.yaml:13: robot 'r1' is declared twice"));
+             StartsWith("home.yaml:13: robot 'r1' starts inside a wall"));
+  CHECK_THAT(errorOf(boxWorld(kRobot + kRobot)), StartsWith("home.yaml:14: robot 'r1' is declared twice"));
   CHECK_THAT(errorOf(boxWorld("  - {name: r.1, pose: [1, 1, 0]}\n")),
              Contains("robot name 'r.1' must be one key part"));
   CHECK_THAT(errorOf(boxWorld("  - {name: r1, pose: [1, 1]}\n")),
-             StartsWith("home.yaml:12: robot r1 pose [x, y, theta_deg] must be a list of 3 numbers"));
+             StartsWith("home.yaml:13: robot r1 pose [x, y, theta_deg] must be a list of 3 numbers"));
   CHECK_THAT(errorOf(boxWorld("  - {name: r1, pose: [1, 1, 0], radius: big}\n")),
              Contains("robot radius must be a number, not 'big'"));
   CHECK_THAT(errorOf(boxWorld("  - {name: r1, pose: [1, 1, 0], hat: {colour: [300, 0, 0]}}\n")),
@@ -94,5 +94,5 @@ TEST_CASE("a world file that cannot be read is a clear error", "[unit]") {
   CHECK_THROWS_WITH(peis::sim::loadWorldFile(dir.file("missing.yaml")),
                     Contains("missing.yaml: cannot open the world file"));
   const auto path = dir.write("broken.yaml", peis::test::boxWorld("  - {name: r1, pose: [9, 9, 0]}\n"));
-  CHECK_THROWS_WITH(peis::sim::loadWorldFile(path), StartsWith(path + ":12: robot r1 pose"));
+  CHECK_THROWS_WITH(peis::sim::loadWorldFile(path), StartsWith(path + ":13: robot r1 pose"));
 }

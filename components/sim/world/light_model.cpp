@@ -9,6 +9,7 @@ namespace {
 
 constexpr int kSamplesAlong = 8;
 constexpr int kSamplesUp = 4;
+constexpr double kBounce = 0.5;
 
 }  // namespace
 
@@ -51,10 +52,61 @@ LightModel::LightModel(const World& world, double mapResolution)
             static_cast<float>(term(Vec2{c * cell_, r * cell_}));
     return map;
   };
-  for (std::size_t i = 0; i < windows_.size(); ++i)
-    windowMaps_.push_back(fill([&](Vec2 p) { return windowTerm(i, p, 0); }));
-  for (std::size_t i = 0; i < world.lamps.size(); ++i)
-    lampMaps_.push_back(fill([&](Vec2 p) { return lampTerm(i, p, 0); }));
+  for (std::size_t i = 0; i < windows_.size(); ++i) {
+    windowMaps_.push_back(fill([&](Vec2 p) { return directWindowTerm(i, p, 0); }));
+    windowBounce_.push_back(bounced(windowMaps_.back()));
+  }
+  for (std::size_t i = 0; i < world.lamps.size(); ++i) {
+    lampMaps_.push_back(fill([&](Vec2 p) { return directLampTerm(i, p, 0); }));
+    lampBounce_.push_back(bounced(lampMaps_.back()));
+  }
+  // Bake the bounced light into the floor maps.
+  const auto bake = [&](std::vector<float>& map, const std::vector<double>& perRoom) {
+    for (int r = 0; r < rows_; ++r)
+      for (int c = 0; c < columns_; ++c)
+        map[static_cast<std::size_t>(r) * columns_ + c] +=
+            static_cast<float>(bouncedIn(perRoom, Vec2{c * cell_, r * cell_}));
+  };
+  for (std::size_t i = 0; i < windowMaps_.size(); ++i) bake(windowMaps_[i], windowBounce_[i]);
+  for (std::size_t i = 0; i < lampMaps_.size(); ++i) bake(lampMaps_[i], lampBounce_[i]);
+}
+
+std::vector<double> LightModel::bounced(const std::vector<float>& directMap) const {
+  std::vector<double> perRoom;
+  for (const Room& room : world_->rooms) {
+    double sum = 0;
+    int count = 0;
+    for (int r = 0; r < rows_; ++r)
+      for (int c = 0; c < columns_; ++c)
+        if (insidePolygon(room.polygon, Vec2{c * cell_, r * cell_})) {
+          sum += directMap[static_cast<std::size_t>(r) * columns_ + c];
+          ++count;
+        }
+    perRoom.push_back(count > 0 ? kBounce * sum / count : 0.0);
+  }
+  return perRoom;
+}
+
+double LightModel::bouncedIn(const std::vector<double>& perRoom, Vec2 p) const {
+  for (std::size_t i = 0; i < world_->rooms.size(); ++i)
+    if (insidePolygon(world_->rooms[i].polygon, p)) return perRoom[i];
+  return 0;
+}
+
+double LightModel::bouncedWindowTerm(std::size_t window, Vec2 p) const {
+  return bouncedIn(windowBounce_.at(window), p);
+}
+
+double LightModel::bouncedLampTerm(std::size_t lamp, Vec2 p) const {
+  return bouncedIn(lampBounce_.at(lamp), p);
+}
+
+double LightModel::windowTerm(std::size_t window, Vec2 p, double z) const {
+  return directWindowTerm(window, p, z) + bouncedWindowTerm(window, p);
+}
+
+double LightModel::lampTerm(std::size_t lamp, Vec2 p, double z) const {
+  return directLampTerm(lamp, p, z) + bouncedLampTerm(lamp, p);
 }
 
 bool LightModel::blocked(Vec2 from, Vec2 to, const Source* through) const {
@@ -68,7 +120,7 @@ bool LightModel::blocked(Vec2 from, Vec2 to, const Source* through) const {
   return false;
 }
 
-double LightModel::windowTerm(std::size_t index, Vec2 p, double z) const {
+double LightModel::directWindowTerm(std::size_t index, Vec2 p, double z) const {
   const Source& s = windows_.at(index);
   if ((p - s.a).dot(s.inward) <= 1e-6) return 0;  // outside, or in the window's plane
   const Vec2 along = s.b - s.a;
@@ -94,7 +146,7 @@ double LightModel::windowTerm(std::size_t index, Vec2 p, double z) const {
   return std::min(sum, 0.5);
 }
 
-double LightModel::lampTerm(std::size_t index, Vec2 p, double z) const {
+double LightModel::directLampTerm(std::size_t index, Vec2 p, double z) const {
   const Lamp& lamp = world_->lamps.at(index);
   const double dz = lamp.height - z;
   if (dz <= 0) return 0;

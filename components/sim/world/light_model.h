@@ -37,10 +37,16 @@ class LightModel {
   // From the floor maps (bilinear), z = 0; outside the map: ambient only.
   double floorIlluminance(const LightState& state, Vec2 p) const;
 
-  // The terms alone: lux per lux of daylight with the blind open, and lux of
-  // a lamp at level 100.
+  // The terms alone, direct plus bounced: lux per lux of daylight with the
+  // blind open, and lux of a lamp at level 100.
   double windowTerm(std::size_t window, Vec2 p, double z) const;
   double lampTerm(std::size_t lamp, Vec2 p, double z) const;
+  // The direct parts only (what walls block).
+  double directWindowTerm(std::size_t window, Vec2 p, double z) const;
+  double directLampTerm(std::size_t lamp, Vec2 p, double z) const;
+  // The bounced light of a source in the room holding p (0 outside rooms).
+  double bouncedWindowTerm(std::size_t window, Vec2 p) const;
+  double bouncedLampTerm(std::size_t lamp, Vec2 p) const;
 
  private:
   struct Source {
@@ -50,13 +56,17 @@ class LightModel {
   };
   bool blocked(Vec2 from, Vec2 to, const Source* through) const;
   double mapValue(const std::vector<float>& map, Vec2 p) const;
+  // Per source, per room: the mean direct floor illuminance times the bounce factor.
+  std::vector<double> bounced(const std::vector<float>& directMap) const;
+  double bouncedIn(const std::vector<double>& perRoom, Vec2 p) const;
 
   const World* world_;
   std::vector<Source> windows_;
   std::vector<std::pair<Vec2, Vec2>> wallSegments_;  // centre lines
   double cell_;
   int columns_, rows_;
-  std::vector<std::vector<float>> windowMaps_, lampMaps_;
+  std::vector<std::vector<float>> windowMaps_, lampMaps_;  // direct + bounced
+  std::vector<std::vector<double>> windowBounce_, lampBounce_;
 };
 
 }  // namespace peis::sim
