@@ -76,9 +76,12 @@ int main(int argc, char** argv) {
       config.noise = n;
     } else if (arg == "--format" && value != nullptr) {
       const std::string format = value;
-      if (format == "raw") config.format = peis::camera::ImageFormat::Raw;
-      else if (format == "png") config.format = peis::camera::ImageFormat::Png;
-      else return bad("takes raw or png");
+      if (format == "raw")
+        config.format = peis::camera::ImageFormat::Raw;
+      else if (format == "png")
+        config.format = peis::camera::ImageFormat::Png;
+      else
+        return bad("takes raw or png");
     } else if (arg == "--seed" && value != nullptr) {
       if (!parseNumber(value, 0, 1e15, &n)) return bad("takes an integer >= 0");
       config.seed = static_cast<std::uint64_t>(n);

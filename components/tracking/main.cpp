@@ -55,7 +55,8 @@ int main(int argc, char** argv) {
   peis::tracking::TrackerConfig config;
   try {
     config.peis = peis::Options::fromArgs(argc, argv);
-    if (config.peis.name.empty() || config.peis.name == config.peis.programName) config.peis.name = "tracker";
+    if (config.peis.name.empty() || config.peis.name == config.peis.programName)
+      config.peis.name = "tracker";
   } catch (const peis::Error& e) {
     std::cerr << "peis-tracker: " << e.what() << "\n";
     return 2;
@@ -122,9 +123,9 @@ int main(int argc, char** argv) {
               << "' on port " << node.kernel().port() << std::endl;
     const std::string why = node.run();
     const auto s = node.stats();
-    std::cerr << "peis-tracker: " << why << "; images " << s.images << ", not images " << s.notImages
-              << ", without calibration " << s.noCalibration << ", wrong size " << s.wrongSize
-              << ", fixes " << s.fixes << std::endl;
+    std::cerr << "peis-tracker: " << why << "; images " << s.images << ", not images "
+              << s.notImages << ", without calibration " << s.noCalibration << ", wrong size "
+              << s.wrongSize << ", fixes " << s.fixes << std::endl;
     return 0;
   } catch (const peis::Error& e) {
     std::cerr << "peis-tracker: " << e.what() << "\n";

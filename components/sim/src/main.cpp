@@ -22,7 +22,8 @@ const char* kUsage =
     "for simulated sensors and draws a top-down picture. See docs/components/sim-world.md.\n"
     "\n"
     "  --world FILE         the world file (default: the PEIS-Home, installed in\n"
-    "                       share/peis/homes/ or else " PEIS_SIM_DEFAULT_WORLD ")\n"
+    "                       share/peis/homes/ or else " PEIS_SIM_DEFAULT_WORLD
+    ")\n"
     "  --speed S            simulated seconds per real second, 0.1..100 (default 1)\n"
     "  --tick-ms N          physics step in ms of simulated time, 1..100 (default 10)\n"
     "  --duration SECONDS   end after this much simulated time (default: run until told)\n"
@@ -66,7 +67,8 @@ int main(int argc, char** argv) {
   std::string worldPath = defaultWorld();
   try {
     config.peis = peis::Options::fromArgs(argc, argv);
-    if (config.peis.name.empty() || config.peis.name == config.peis.programName) config.peis.name = "world";
+    if (config.peis.name.empty() || config.peis.name == config.peis.programName)
+      config.peis.name = "world";
   } catch (const peis::Error& e) {
     std::cerr << "peis-sim-world: " << e.what() << "\n";
     return 2;
@@ -96,7 +98,8 @@ int main(int argc, char** argv) {
     } else if (arg == "--scene-hz" && value != nullptr) {
       if (!parseNumber(value, 1, 200, &config.sceneHz)) return bad("takes 1..200");
     } else if (arg == "--seed" && value != nullptr) {
-      if (!parseNumber(value, 0, 4294967295.0, &n) || n != static_cast<double>(static_cast<std::uint32_t>(n)))
+      if (!parseNumber(value, 0, 4294967295.0, &n) ||
+          n != static_cast<double>(static_cast<std::uint32_t>(n)))
         return bad("takes an integer 0..4294967295");
       config.seed = static_cast<std::uint32_t>(n);
     } else if (arg == "--picture" && value != nullptr) {
