@@ -11,7 +11,7 @@
 #include "peis/error.h"
 #include "sim/world/occupancy_grid.h"
 #include "sim/world/scene.h"
-#include "sim_world_descriptor.h"
+#include "world_descriptor.h"
 
 namespace peis::sim {
 namespace {
