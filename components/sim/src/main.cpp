@@ -7,6 +7,7 @@
 #include <iostream>
 #include <string>
 
+#include "common/command_line.h"
 #include "peis/error.h"
 #include "peis/options.h"
 #include "world_node.h"
@@ -50,41 +51,19 @@ std::string defaultWorld() {
   return PEIS_SIM_DEFAULT_WORLD;
 }
 
-bool parseNumber(const char* text, double low, double high, double* out) {
-  if (text == nullptr || *text == '\0') return false;
-  char* end = nullptr;
-  errno = 0;
-  const double value = std::strtod(text, &end);
-  if (errno != 0 || *end != '\0' || !(value >= low && value <= high)) return false;
-  *out = value;
-  return true;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
+  using namespace peis::components;
   peis::sim::WorldConfig config;
   std::string worldPath = defaultWorld();
-  try {
-    config.peis = peis::Options::fromArgs(argc, argv);
-    if (config.peis.name.empty() || config.peis.name == config.peis.programName)
-      config.peis.name = "world";
-  } catch (const peis::Error& e) {
-    std::cerr << "peis-sim-world: " << e.what() << "\n";
-    return 2;
-  }
-  if (config.peis.help) {
-    std::cout << kUsage << "\nPEIS options:\n" << peis::Options::helpText();
-    return 0;
-  }
+  if (auto done = parsePeisOptions(argc, argv, "peis-sim-world", kUsage, "world", config.peis))
+    return *done;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     const char* value = i + 1 < argc ? argv[i + 1] : nullptr;
     double n = 0;
-    auto bad = [&](const std::string& why) {
-      std::cerr << "peis-sim-world: " << arg << ": " << why << " (see --help)\n";
-      return 2;
-    };
+    auto bad = [&](const std::string& why) { return badArgument("peis-sim-world", arg, why); };
     if (arg == "--world" && value != nullptr) {
       worldPath = value;
     } else if (arg == "--speed" && value != nullptr) {
@@ -113,8 +92,7 @@ int main(int argc, char** argv) {
         return bad("takes PHYSICS-KEY=OWNER.KEY");
       config.bindings.emplace_back(binding.substr(0, eq), binding.substr(eq + 1));
     } else {
-      return bad(value == nullptr && arg.rfind("--", 0) == 0 ? "needs a value or is unknown"
-                                                             : "unknown argument");
+      return bad(unknownArgument(arg, value));
     }
     ++i;
   }
