@@ -160,8 +160,19 @@ void TrackerNode::trySolve(Timestamp moment) {
 }
 
 void TrackerNode::solve(Timestamp moment) {
-  if (lastSolved_ && moment <= *lastSolved_) return;
+  // A moment is solved once, and again only when more of its images came
+  // (a camera that was late): never an older moment.
+  std::size_t images = 0;
+  for (const Camera& c : cameras_)
+    if (c.calibration && c.frameTime) {
+      const auto skew = *c.frameTime > moment ? *c.frameTime - moment : moment - *c.frameTime;
+      images += skew <= config_.maxSkew;
+    }
+  if (lastSolved_ &&
+      (moment < *lastSolved_ || (moment == *lastSolved_ && images <= lastSolvedImages_)))
+    return;
   lastSolved_ = moment;
+  lastSolvedImages_ = images;
   for (std::size_t t = 0; t < config_.targets.size(); ++t) {
     std::vector<Sighting> sightings;
     Timestamp newest = kNoTime;

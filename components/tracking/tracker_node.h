@@ -72,6 +72,7 @@ class TrackerNode {
   HatDetector detector_;
   std::vector<Camera> cameras_;  // touched on the kernel thread only
   std::optional<Timestamp> lastSolved_;
+  std::size_t lastSolvedImages_ = 0;
   Stats stats_;
   mutable std::mutex statsMu_;
   std::optional<TimerHandle> statsTimer_;

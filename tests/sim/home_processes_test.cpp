@@ -240,22 +240,30 @@ TEST_CASE(
   INFO(home.describe());
   REQUIRE(running);
 
-  // Pippi drives a slow arc in the living room; the fixes follow it.
+  // Pippi drives a slow arc in the living room; the fixes follow it. Fixes
+  // from one camera come too (when the other image is late); both kinds are
+  // checked against the truth, the two-camera ones against the target.
+  const auto twoCameraFixes = [&] {
+    return std::count(cameraCounts.begin(), cameraCounts.end(), 2);
+  };
   const bool enough = waitFor(
       [&] {
         k.set(base, "VelCommand", "0.15 0.2");
         std::lock_guard lock(mu);
-        return errors.size() >= 15;
+        return twoCameraFixes() >= 10;
       },
-      90s);
-  REQUIRE(enough);
+      120s);
   std::lock_guard lock(mu);
-  std::vector<double> sorted = errors;
-  std::sort(sorted.begin(), sorted.end());
-  INFO("errors (m): median " << sorted[sorted.size() / 2] << ", max " << sorted.back());
-  CHECK(sorted[sorted.size() / 2] < 0.03);
-  CHECK(sorted.back() < 0.08);
-  CHECK(std::count(cameraCounts.begin(), cameraCounts.end(), 2) >= 10);
+  INFO(errors.size() << " fixes, " << twoCameraFixes() << " from two cameras");
+  REQUIRE(enough);
+  std::vector<double> two;
+  for (std::size_t i = 0; i < errors.size(); ++i)
+    if (cameraCounts[i] == 2) two.push_back(errors[i]);
+  std::sort(two.begin(), two.end());
+  INFO("two-camera errors (m): median " << two[two.size() / 2] << ", max " << two.back());
+  CHECK(two[two.size() / 2] < 0.03);
+  CHECK(two.back() < 0.08);
+  CHECK(*std::max_element(errors.begin(), errors.end()) < 0.10);
 }
 
 TEST_CASE("the tracker copes with a camera with no image and with tuples that are not images",
