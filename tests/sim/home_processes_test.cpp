@@ -8,6 +8,7 @@
 
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <fstream>
 #include <map>
 #include <mutex>
 #include <sstream>
@@ -185,6 +186,47 @@ TEST_CASE(
         return v.size() == 5 && std::abs(v[3]) < 1e-3;
       },
       20s));
+}
+
+TEST_CASE("a run with --duration ends by itself and leaves its top-down picture", "[integration]") {
+  Home home;
+  auto& world = home.world({"--duration", "1", "--speed", "5"});
+  const auto status = world.wait(60s);
+  INFO(world.describe());
+  REQUIRE(status.has_value());
+  CHECK(*status == 0);
+  CHECK(world.out().find("duration reached") != std::string::npos);
+  std::ifstream picture(home.dir.file("home.png"), std::ios::binary);
+  std::string magic(8, '\0');
+  picture.read(magic.data(), 8);
+  CHECK(magic == "\x89PNG\r\n\x1a\n");
+}
+
+TEST_CASE("--bind makes a physics input follow another PEIS's tuple", "[integration]") {
+  Home home;
+  auto& k = home.kernel();  // "referee", the device that reports its lamp level
+  k.set("LampLevel", "0");
+  home.world({"--bind", "physics.lamp.lamp.level=referee.LampLevel"});
+  const auto world = home.idOf("world");
+  k.subscribe(peis::Pattern::exact(world, "physics.lamp.lamp.level"));
+  k.subscribe(peis::Pattern::exact(world, "physics.light.sofa"));
+  REQUIRE(waitFor([&] { return home.value(world, "physics.light.sofa").has_value(); }, 30s));
+  const double dark = numbers(home.value(world, "physics.light.sofa")->data, 1)[0];
+  k.set("LampLevel", "80");
+  const bool followed = waitFor(
+      [&] {
+        const auto level = home.value(world, "physics.lamp.lamp.level");
+        return level && level->data == "80.0";
+      },
+      30s);
+  INFO(home.describe());
+  REQUIRE(followed);
+  CHECK(waitFor(
+      [&] { return numbers(home.value(world, "physics.light.sofa")->data, 1)[0] > dark + 50; }));
+  k.set("LampLevel", "bright");  // not a number: ignored, said on stderr
+  CHECK(waitFor(
+      [&] { return home.processes[0]->err().find("ignored 'bright'") != std::string::npos; }));
+  CHECK(home.value(world, "physics.lamp.lamp.level")->data == "80.0");
 }
 
 TEST_CASE(
