@@ -96,7 +96,7 @@ TEST_CASE("broken camera files name file:line and the problem", "[unit]") {
                     Contains("cannot open the camera file"));
 }
 
-TEST_CASE("images round-trip as PNG and raw tuples; anything else is refused with a reason",
+TEST_CASE("images round-trip as PNG and raw tuples and anything else is refused with a reason",
           "[unit]") {
   cv::Mat image(48, 64, CV_8UC3);
   cv::randu(image, 0, 255);

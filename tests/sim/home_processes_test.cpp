@@ -202,7 +202,7 @@ TEST_CASE("a run with --duration ends by itself and leaves its top-down picture"
   CHECK(magic == "\x89PNG\r\n\x1a\n");
 }
 
-TEST_CASE("--bind makes a physics input follow another PEIS's tuple", "[integration]") {
+TEST_CASE("a physics input follows another PEIS's tuple with --bind", "[integration]") {
   Home home;
   auto& k = home.kernel();  // "referee", the device that reports its lamp level
   k.set("LampLevel", "0");
@@ -364,7 +364,7 @@ TEST_CASE("the tracker copes with a camera with no image and with tuples that ar
   for (auto& p : home.processes) CHECK(p->running());
 }
 
-TEST_CASE("broken world and camera files are errors naming file:line; bad options exit 2",
+TEST_CASE("broken world and camera files are errors naming file:line and bad options exit 2",
           "[fault]") {
   peis::test::TempDir dir("peis_home_files");
   const auto expect = [](std::vector<std::string> argv, int status, const std::string& text) {

@@ -35,7 +35,7 @@ TEST_CASE("a lamp lights a point by I cos(theta) / d^2 at its level", "[unit]") 
         Approx(0.5 * (100.0 * (2 / std::sqrt(5.0)) / 5 + bounced)));
 }
 
-TEST_CASE("the blind attenuates the daylight on the plant; the lamp lights the sofa", "[unit]") {
+TEST_CASE("the blind attenuates the daylight on the plant and the lamp lights the sofa", "[unit]") {
   const auto world = peis::sim::loadWorldFile(peis::test::peisHomePath());
   const LightModel light(world);
   LightState state = peis::sim::initialLightState(world);

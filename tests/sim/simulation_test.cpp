@@ -49,7 +49,7 @@ TEST_CASE("a robot driving into furniture stops at it with its bumper pressed", 
   CHECK(sim.robot(0).pose.x < 2.2);
 }
 
-TEST_CASE("odometry without noise is the ground truth; with noise it drifts", "[unit]") {
+TEST_CASE("odometry without noise is the ground truth and with noise it drifts", "[unit]") {
   Simulation exact(boxWorldWith(kExactRobot), 1);
   drive(exact, {0.3, 0.4}, 5);
   CHECK(exact.robot(0).odometry.x == Approx(exact.robot(0).pose.x).margin(1e-9));

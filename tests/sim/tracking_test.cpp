@@ -130,7 +130,7 @@ TEST_CASE("two cameras triangulate a robot within 2 cm of the truth", "[unit]") 
   }
 }
 
-TEST_CASE("one camera gives a ground-plane fix with a larger covariance; none gives nothing",
+TEST_CASE("one camera gives a ground-plane fix with a larger covariance and none gives nothing",
           "[unit]") {
   const Home home;
   const double height = home.targets[home.targetIndex("Pippi")].height;
