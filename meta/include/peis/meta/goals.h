@@ -21,6 +21,7 @@ struct InformationGoal {
   Term information;          // ground
   std::string consumerPeis;  // PEIS name or id; empty: no consumer
   std::string consumerKey;   // the meta input key, e.g. "mi-position"
+  std::string origin;        // where it was declared ("goals.yaml:3", "argument 2"), for errors
   std::string toString() const;  // `position(pippi)@pippi.mi-position`
   bool operator==(const InformationGoal&) const = default;
 };
@@ -29,6 +30,7 @@ struct InformationGoal {
 // name one PEIS, component and functionality; a partial binding is allowed).
 struct RunGoal {
   InstanceSelector instance;
+  std::string origin;
   bool operator==(const RunGoal&) const = default;
 };
 
