@@ -93,6 +93,12 @@ double LmCut::hmax(const std::vector<double>& costs, const std::vector<char>& is
 
 double LmCut::compute(const std::vector<double>& costs, const std::vector<char>& isTrue,
                       const std::vector<int>& goal, double bound) {
+  return compute(costs, isTrue, goal, bound, nullptr);
+}
+
+double LmCut::compute(const std::vector<double>& costs, const std::vector<char>& isTrue,
+                      const std::vector<int>& goal, double bound,
+                      std::vector<Landmark>* landmarks) {
   const int goalAction = static_cast<int>(pre_.size()) - 1;
   double h = hmax(costs, isTrue, goal);
   if (h == kInfinity) return kInfinity;
@@ -155,6 +161,7 @@ double LmCut::compute(const std::vector<double>& costs, const std::vector<char>&
     for (int a : cut) cheapest = std::min(cheapest, cost_[a]);
     if (cut.empty() || cheapest == kInfinity) break;  // cannot happen on a reachable goal
     h += cheapest;
+    if (landmarks) landmarks->push_back({cut, cheapest});
     if (h >= bound) return h;
     for (int a : cut) {
       cost_[a] -= cheapest;

@@ -32,6 +32,16 @@ class LmCut {
   double compute(const std::vector<double>& costs, const std::vector<char>& isTrue,
                  const std::vector<int>& goal, double bound = kInfinity);
 
+  // The same, and appends each cut found (its actions and its cost) to
+  // `landmarks`: a cost partitioning that a caller can reuse after actions
+  // became free or unavailable (incremental LM-cut).
+  struct Landmark {
+    std::vector<int> actions;
+    double cost = 0;
+  };
+  double compute(const std::vector<double>& costs, const std::vector<char>& isTrue,
+                 const std::vector<int>& goal, double bound, std::vector<Landmark>* landmarks);
+
   // h^max alone (cheaper, weaker); kInfinity when unreachable.
   double hmax(const std::vector<double>& costs, const std::vector<char>& isTrue,
               const std::vector<int>& goal);

@@ -203,7 +203,10 @@ PlanResult ConfigurationPlanner::plan(const Goals& goals, const PlanOptions& opt
   std::vector<detail::PartSolution> solutions;
   for (auto& part : parts) {
     searches.emplace_back(part);
-    solutions.push_back(searches.back().first(limits));
+    // The node limit is for the improvement; the deadline holds throughout.
+    detail::SearchLimits firstLimits;
+    firstLimits.deadline = limits.deadline;
+    solutions.push_back(searches.back().first(firstLimits));
     result.stats.nodes += solutions.back().nodes;
   }
   result.stats.firstSolutionMs = elapsedMs();

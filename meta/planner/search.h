@@ -69,6 +69,7 @@ class PartSearch {
   RelaxedTask task_;
   std::vector<int> linkBase_;  // first link action of each slot
   std::vector<double> estimate_;  // h_add of each instance, for option order
+  bool dag_ = false;              // no cycle of producers can form
 };
 
 }  // namespace peis::meta::detail

@@ -47,30 +47,31 @@ Problem smallRandom(std::mt19937& rng) {
     const auto c = std::string(cams[uniform(rng, 0, 1)]);
     // Sometimes two functionalities write one key (they then exclude each other).
     const std::string suffix = chance(rng, 0.8) ? "-" + std::to_string(k) : "";
+    const std::string in = chance(rng, 0.8) ? "mi-f" + std::to_string(k) + "-" : "mi-";
     switch (uniform(rng, 0, 6)) {
       case 0:  // camera
         f.outputs = {port("img", "img(" + c + ")", "img-" + c + suffix)};
         break;
       case 1:  // tracker, one camera
-        f.inputs = {port("in", "img(?c)")};
+        f.inputs = {port("in", "img(?c)", in + "in.?c")};
         f.outputs = {port("pos", "pos(?r)", "pos" + suffix + ".?r")};
         f.preconditions = {"sees(?r,?c)"};
         break;
       case 2:  // tracker, two different cameras
-        f.inputs = {port("a", "img(?a)"), port("b", "img(?b)")};
+        f.inputs = {port("a", "img(?a)", in + "a.?a"), port("b", "img(?b)", in + "b.?b")};
         f.outputs = {port("pos", "pos(?r)", "pos" + suffix + ".?r")};
         f.preconditions = {"sees(?r,?a)", "sees(?r,?b)", "?a != ?b"};
         break;
       case 3:  // odometry, maybe needing the map (a cycle with the mapper)
         f.outputs = {port("pos", "pos(" + r + ")", "odo" + suffix)};
-        if (chance(rng, 0.5)) f.inputs = {port("map", "map")};
+        if (chance(rng, 0.5)) f.inputs = {port("map", "map", in + "map")};
         break;
       case 4:  // mapper
-        f.inputs = {port("pos", "pos(" + r + ")")};
+        f.inputs = {port("pos", "pos(" + r + ")", in + "pos")};
         f.outputs = {port("map", "map", "map" + suffix)};
         break;
       case 5:  // navigation for a robot
-        f.inputs = {port("pos", "pos(?r)"), port("map", "map")};
+        f.inputs = {port("pos", "pos(?r)", in + "pos"), port("map", "map", in + "map")};
         f.outputs = {port("nav", "nav(?r)", "nav" + suffix + ".?r")};
         f.preconditions = {"robot(?r)"};
         break;
@@ -150,7 +151,7 @@ Problem sensing(std::mt19937& rng, int functionalities) {
                                 : "sensor" + std::to_string(uniform(rng, 0, kSensorKinds - 1)) + "(?r)";
         if (std::find(used.begin(), used.end(), type) != used.end()) continue;
         used.push_back(type);
-        f.inputs.push_back(port("in" + std::to_string(i), type));
+        f.inputs.push_back(port("in" + std::to_string(i), type, "mi-" + f.name + "-" + std::to_string(i) + ".?r"));
       }
       // Each inference runs on one PC, for every room it is asked about.
       m.peis[uniform(rng, 0, pcs - 1)].components[0].functionalities.push_back(f);
@@ -193,7 +194,8 @@ Problem layered(std::mt19937& rng, int functionalities, int goalCount) {
             const int u = std::clamp(t + uniform(rng, -3, 3), 0, typesPerLayer - 1);
             if (std::find(used.begin(), used.end(), u) != used.end()) continue;
             used.push_back(u);
-            f.inputs.push_back(port("in" + std::to_string(i), typeName(layer - 1, u)));
+            f.inputs.push_back(port("in" + std::to_string(i), typeName(layer - 1, u),
+                                    "mi-" + f.name + "-" + std::to_string(i)));
           }
         }
         m.peis[uniform(rng, 0, peisCount - 1)].components[0].functionalities.push_back(f);
