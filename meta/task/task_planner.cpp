@@ -178,7 +178,7 @@ TaskPlan planTask(const Domain& domain, const Problem& problem, const TaskPlanOp
         const auto& atom = positive[i]->atom;
         auto it = byFunctor.find(atom.functor);
         if (it == byFunctor.end()) return;
-        const auto candidates = it->second;  // may grow while joining
+        const auto& candidates = it->second;  // facts are learnt after the join
         for (const auto& args : candidates) {
           std::vector<std::string> added;
           bool ok = args.size() == atom.args.size();
@@ -296,8 +296,6 @@ TaskPlan planTask(const Domain& domain, const Problem& problem, const TaskPlanOp
     int parent;
     int action;
     bool closed = false;
-    bool evaluated = false;
-    double h = 0;
   };
   std::vector<Node> nodes;
   std::unordered_map<State, int, StateHash> index;
@@ -305,8 +303,6 @@ TaskPlan planTask(const Domain& domain, const Problem& problem, const TaskPlanOp
   std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
   const double h0 = heuristic(initial);
   nodes.push_back({initial, 0, -1, -1});
-  nodes.back().evaluated = true;
-  nodes.back().h = h0;
   index.emplace(initial, 0);
   if (h0 != kInfinity) open.push({h0, h0, 0});
   const bool timed = options.timeLimit.count() > 0;
@@ -317,22 +313,6 @@ TaskPlan planTask(const Domain& domain, const Problem& problem, const TaskPlanOp
     const auto [f, h, n] = open.top();
     open.pop();
     if (f > nodes[n].g + h + 1e-9 || nodes[n].closed) continue;  // stale entry
-    // Deferred evaluation: a state is queued with its parent's h and gets
-    // its own when it comes first; if that raises f, it waits its turn again.
-    if (!nodes[n].evaluated) {
-      nodes[n].evaluated = true;
-      const double own = heuristic(nodes[n].state);
-      ++plan.statesGenerated;
-      if (own == kInfinity) {
-        nodes[n].closed = true;
-        continue;
-      }
-      nodes[n].h = std::max(own, h);
-      if (nodes[n].g + nodes[n].h > f + 1e-9) {
-        open.push({nodes[n].g + nodes[n].h, nodes[n].h, n});
-        continue;
-      }
-    }
     nodes[n].closed = true;
     if (isGoal(nodes[n].state)) {
       goalNode = n;
@@ -357,7 +337,9 @@ TaskPlan planTask(const Domain& domain, const Problem& problem, const TaskPlanOp
       const double g = nodes[n].g + act.cost;
       auto it = index.find(next);
       if (it != index.end() && nodes[it->second].g <= g + 1e-12) continue;
-      const double hn = nodes[n].h;  // the parent's, until the state is popped
+      const double hn = heuristic(next);
+      ++plan.statesGenerated;
+      if (hn == kInfinity) continue;
       int id;
       if (it != index.end()) {
         id = it->second;
@@ -368,11 +350,9 @@ TaskPlan planTask(const Domain& domain, const Problem& problem, const TaskPlanOp
       } else {
         id = static_cast<int>(nodes.size());
         nodes.push_back({std::move(next), g, n, a});
-        nodes.back().h = hn;
         index.emplace(nodes.back().state, id);
       }
-      const double queued = std::max(hn, nodes[id].h);
-      open.push({g + queued, queued, id});
+      open.push({g + hn, hn, id});
     }
   }
   plan.milliseconds = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
