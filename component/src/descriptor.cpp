@@ -90,7 +90,7 @@ std::vector<Port> ports(std::string_view origin, const YAML::Node& node, const s
   return result;
 }
 
-// Variables must be bound by a type or an atom; nothing may need itself.
+// Variables must be bound by a type or an atom; keys must be distinct.
 void checkVariables(std::string_view origin, const YAML::Node& node, const Functionality& f,
                     const std::vector<Precondition>& preconditions) {
   std::set<std::string> bound{std::string(kSelfVariable)};
@@ -114,14 +114,6 @@ void checkVariables(std::string_view origin, const YAML::Node& node, const Funct
     if (p.disequality && p.left == p.right) {
       fail(origin, node, "functionality '" + f.name + "': precondition '" + p.toString() +
                              "' can never hold");
-    }
-  }
-  for (const auto& p : f.outputs) {
-    for (const auto& q : f.inputs) {
-      if (p.type == q.type) {
-        fail(origin, node, "functionality '" + f.name + "' needs what it produces (" + p.type +
-                               ") and could only run on its own output");
-      }
     }
   }
   std::set<std::string> keys;

@@ -51,6 +51,9 @@ struct PartSearch::State {
   // depends (through assigned slots) on an active user of the slot.
   bool closesCycle(int slot, int producer) {
     if (dag) return false;
+    for (int t : part.insts[producer].slots) {
+      if (t == slot) return true;  // it would feed itself
+    }
     ++epoch;
     for (int u : part.slots[slot].users) {
       if (active[u]) mark[u] = epoch;

@@ -326,8 +326,6 @@ TEST_CASE("bad typed descriptors are errors with file:line", "[unit][descriptor]
              Contains("?q") && Contains("appears in no type"));
   CHECK_THAT(failure(head + "    outputs: [{name: x, type: \"t(?a)\"}]\n    preconditions: [\"?a != ?a\"]\n"),
              Contains("can never hold"));
-  CHECK_THAT(failure(head + "    inputs: [{name: y, type: \"t(?a)\"}]\n    outputs: [{name: x, type: \"t(?a)\"}]\n"),
-             StartsWith("camera.yaml:3:") && Contains("needs what it produces"));
   CHECK_THAT(failure(head + "    outputs: [{name: x, type: t, key: k}, {name: y, type: u, key: k}]\n"),
              Contains("two outputs to the key 'k'"));
   CHECK_THAT(failure(head + "    activation: \"a b\"\n"), StartsWith("camera.yaml:4:") && Contains("actuator"));

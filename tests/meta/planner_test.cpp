@@ -388,3 +388,25 @@ TEST_CASE("optimal on mid-size models against a MILP solver (GLPK)", "[unit][pla
   }
   CHECK(compared >= 30);
 }
+
+TEST_CASE("a functionality never feeds itself through a shared meta input", "[unit][planner]") {
+  // The filter reads mi-position, which is also the goal's meta input: it
+  // could only feed itself there, so the odometry must produce the position.
+  const auto model = Model::fromYaml(R"yaml(
+peis:
+  - name: robot
+    components:
+      - component: base
+        functionalities:
+          - {name: odometry, outputs: [{name: odometry, type: "position(?self)"}], cost: 5}
+          - name: filter
+            inputs: [{name: position, type: "position(?self)", key: mi-position}]
+            outputs: [{name: smooth, type: "position(?self)"}]
+            cost: 0
+)yaml");
+  const auto goals = goalsOf({"position(robot)@robot.mi-position"});
+  const auto r = ConfigurationPlanner(model).plan(goals);
+  requireValid(model, goals, r);
+  CHECK(r.configuration.cost == Approx(5.1));
+  CHECK(r.configuration.links.at(0).producerKey == "odometry");
+}
