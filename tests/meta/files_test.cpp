@@ -148,7 +148,7 @@ goal: [lifted, "at(r, c)"]
   CHECK_THAT(failure([] { task::Problem::fromYaml("problem: p\ndomain: d\n", "p.yaml"); }), Contains("goal is missing"));
   CHECK_THAT(failure([&] {
                auto other = p;
-               other.domain = "e";
+               other.domain.assign(1, 'e');  // (= "e" trips a GCC 12 -Wrestrict false positive)
                task::planTask(d, other);
              }),
              Contains("for the domain 'e'"));

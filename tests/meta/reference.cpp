@@ -63,7 +63,7 @@ std::string nameOf(const PeisInfo& p, const std::string& c, const std::string& f
 }
 
 // Every ground instance of one functionality (facts, disequalities checked).
-void instancesOf(const Model& model, int p, const Descriptor& d, const Functionality& f,
+void instancesOf(const Model& model, int p, const Functionality& f,
                  const std::vector<std::string>& constants, const std::set<std::string>& facts,
                  const std::function<void(const Values&)>& emit) {
   std::set<std::string> vars;
@@ -159,7 +159,7 @@ std::optional<Ground> groundNaively(const Model& model, const Goals& goals,
     for (const auto& d : peis.components) {
       for (const auto& f : d.functionalities) {
         bool tooMany = false;
-        instancesOf(model, p, d, f, constants, facts, [&](const Values& v) {
+        instancesOf(model, p, f, constants, facts, [&](const Values& v) {
           for (const auto& s : model.failed) {
             if (matches(s, peis, d.component, f.name, v)) return;
           }
