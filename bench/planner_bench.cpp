@@ -31,7 +31,9 @@ double percentile(std::vector<double> v, double p) {
 double ms(Clock::duration d) { return std::chrono::duration<double, std::milli>(d).count(); }
 
 void configurationTable(long timeLimitMs) {
-  std::printf("| family | functionalities | runs | relevant | first valid p50 / max (ms) | plan p50 (ms) | plan p95 (ms) | proven optimal (or infeasible) | greedy excess (mean / max) |\n");
+  std::printf(
+      "| family | functionalities | runs | relevant | first valid p50 / max (ms) | plan p50 (ms) | "
+      "plan p95 (ms) | proven optimal (or infeasible) | greedy excess (mean / max) |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|\n");
   for (const char* family : {"sensing", "layered"}) {
     for (int size : {10, 100, 1000, 10000}) {
@@ -59,38 +61,44 @@ void configurationTable(long timeLimitMs) {
         if (b.status == PlanStatus::Optimal) {
           ++optimal;
           if (a.ok() && b.configuration.cost > 0) {
-            excess.push_back(100 * (a.configuration.cost - b.configuration.cost) / b.configuration.cost);
+            excess.push_back(100 * (a.configuration.cost - b.configuration.cost) /
+                             b.configuration.cost);
           }
         }
       }
       double mean = 0;
       for (double e : excess) mean += e;
       mean = excess.empty() ? 0 : mean / static_cast<double>(excess.size());
-      std::printf("| %s | %d | %d | %.0f | %.3f / %.3f | %.3f | %.3f | %d/%d | %.1f %% / %.1f %% |\n", family,
-                  size, runs, relevant / runs, percentile(first, 0.5), percentile(first, 1.0),
-                  percentile(full, 0.5), percentile(full, 0.95), optimal, runs, mean,
-                  excess.empty() ? 0.0 : *std::max_element(excess.begin(), excess.end()));
+      std::printf(
+          "| %s | %d | %d | %.0f | %.3f / %.3f | %.3f | %.3f | %d/%d | %.1f %% / %.1f %% |\n",
+          family, size, runs, relevant / runs, percentile(first, 0.5), percentile(first, 1.0),
+          percentile(full, 0.5), percentile(full, 0.95), optimal, runs, mean,
+          excess.empty() ? 0.0 : *std::max_element(excess.begin(), excess.end()));
       std::fflush(stdout);
     }
   }
 }
 
 void replanTable(long timeLimitMs) {
-  std::printf("\n| family | functionalities | runs | replan after a failure p50 (ms) | p95 (ms) | proven optimal |\n");
+  std::printf(
+      "\n| family | functionalities | runs | replan after a failure p50 (ms) | p95 (ms) | proven "
+      "optimal |\n");
   std::printf("|---|---|---|---|---|---|\n");
   for (const char* family : {"sensing", "layered"}) {
     std::mt19937 rng(77);
     std::vector<double> times;
     int optimal = 0, runs = 0;
     while (runs < 30) {
-      auto p = std::strcmp(family, "sensing") == 0 ? testing::sensing(rng, 1000) : testing::layered(rng, 1000);
+      auto p = std::strcmp(family, "sensing") == 0 ? testing::sensing(rng, 1000)
+                                                   : testing::layered(rng, 1000);
       ConfigurationPlanner planner(p.model);
       PlanOptions limited;
       limited.timeLimit = std::chrono::milliseconds(timeLimitMs);
       const auto before = planner.plan(p.goals, limited);
       if (!before.ok() || before.configuration.instances.empty()) continue;
       // The monitor's call: one active functionality failed; plan again, warm.
-      const auto& victim = before.configuration.instances[rng() % before.configuration.instances.size()];
+      const auto& victim =
+          before.configuration.instances[rng() % before.configuration.instances.size()];
       planner.setFailed({victim.peis, victim.component, victim.functionality, {}}, true);
       PlanOptions warm = limited;
       warm.warmStart = &before.configuration;
@@ -114,8 +122,10 @@ std::string gridDomainProblem(int rooms, int robots, int cleanGoals, std::mt1993
     objects += (objects.empty() ? "" : ", ") + std::string("room") + std::to_string(r) + ": place";
     const int right = r + 1, down = r + columns;
     if (r % columns != columns - 1 && right < rooms) {
-      init += "  - \"adjacent(room" + std::to_string(r) + ", room" + std::to_string(right) + ")\"\n";
-      init += "  - \"adjacent(room" + std::to_string(right) + ", room" + std::to_string(r) + ")\"\n";
+      init +=
+          "  - \"adjacent(room" + std::to_string(r) + ", room" + std::to_string(right) + ")\"\n";
+      init +=
+          "  - \"adjacent(room" + std::to_string(right) + ", room" + std::to_string(r) + ")\"\n";
     }
     if (down < rooms) {
       init += "  - \"adjacent(room" + std::to_string(r) + ", room" + std::to_string(down) + ")\"\n";
@@ -124,11 +134,15 @@ std::string gridDomainProblem(int rooms, int robots, int cleanGoals, std::mt1993
   }
   for (int b = 0; b < robots; ++b) {
     objects += ", robot" + std::to_string(b) + ": robot";
-    init += "  - \"at(robot" + std::to_string(b) + ", room" + std::to_string(rng() % rooms) + ")\"\n";
-    goal += "  - \"at(robot" + std::to_string(b) + ", room" + std::to_string(rng() % rooms) + ")\"\n";
+    init +=
+        "  - \"at(robot" + std::to_string(b) + ", room" + std::to_string(rng() % rooms) + ")\"\n";
+    goal +=
+        "  - \"at(robot" + std::to_string(b) + ", room" + std::to_string(rng() % rooms) + ")\"\n";
   }
-  for (int c = 0; c < cleanGoals; ++c) goal += "  - \"clean(room" + std::to_string(rng() % rooms) + ")\"\n";
-  return "problem: grid\ndomain: grid\nobjects: {" + objects + "}\ninit:\n" + init + "goal:\n" + goal;
+  for (int c = 0; c < cleanGoals; ++c)
+    goal += "  - \"clean(room" + std::to_string(rng() % rooms) + ")\"\n";
+  return "problem: grid\ndomain: grid\nobjects: {" + objects + "}\ninit:\n" + init + "goal:\n" +
+         goal;
 }
 
 const char* const kGridDomain = R"yaml(
@@ -147,7 +161,8 @@ actions:
 )yaml";
 
 void taskTable(const std::string& domains) {
-  std::printf("\n| task problem | ground actions | plan length | cost | states expanded | time (ms) |\n");
+  std::printf(
+      "\n| task problem | ground actions | plan length | cost | states expanded | time (ms) |\n");
   std::printf("|---|---|---|---|---|---|\n");
   const auto home = task::Domain::fromFile(domains + "/home.domain.yaml");
   for (const char* name : {"wakeup", "photo", "vacuum"}) {
@@ -161,7 +176,8 @@ void taskTable(const std::string& domains) {
   std::mt19937 rng(5);
   std::vector<double> times;
   for (int trial = 0; trial < 5; ++trial) {
-    const auto problem = task::Problem::fromYaml(gridDomainProblem(20, 5, trial < 3 ? 0 : 1, rng), "grid problem");
+    const auto problem =
+        task::Problem::fromYaml(gridDomainProblem(20, 5, trial < 3 ? 0 : 1, rng), "grid problem");
     task::TaskPlanOptions options;
     options.timeLimit = std::chrono::seconds(20);
     const auto plan = task::planTask(grid, problem, options);
@@ -180,15 +196,19 @@ int main(int argc, char** argv) {
   bool onlyTask = false;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--help")) {
-      std::printf("Usage: peis-bench-planner [--time-limit MS] [--domains DIR] [--task-only]\n"
-                  "Benchmarks the configuration and task planners; prints markdown tables.\n");
+      std::printf(
+          "Usage: peis-bench-planner [--time-limit MS] [--domains DIR] [--task-only]\n"
+          "Benchmarks the configuration and task planners; prints markdown tables.\n");
       return 0;
     }
     if (!std::strcmp(argv[i], "--time-limit") && i + 1 < argc) timeLimitMs = std::atol(argv[++i]);
     if (!std::strcmp(argv[i], "--domains") && i + 1 < argc) domains = argv[++i];
     if (!std::strcmp(argv[i], "--task-only")) onlyTask = true;
   }
-  std::printf("Configuration planner, time limit %ld ms per plan (proven optimal = finished within it).\n\n", timeLimitMs);
+  std::printf(
+      "Configuration planner, time limit %ld ms per plan (proven optimal = finished within "
+      "it).\n\n",
+      timeLimitMs);
   if (!onlyTask) {
     configurationTable(timeLimitMs);
     replanTable(timeLimitMs);

@@ -1,6 +1,5 @@
 // Reading and writing functionality descriptors (YAML, via yaml-cpp).
 #include "peis/descriptor.h"
-#include "peis/descriptor_yaml.h"
 
 #include <yaml-cpp/yaml.h>
 
@@ -9,6 +8,7 @@
 #include <set>
 #include <sstream>
 
+#include "peis/descriptor_yaml.h"
 #include "peis/error.h"
 #include "peis/key.h"
 
@@ -62,8 +62,8 @@ std::string sampleKey(std::string key) {
 
 Port port(std::string_view origin, const YAML::Node& item, const std::string& what, bool input) {
   onlyKeys(origin, item, {"name", "type", "key"}, "an entry of " + what);
-  Port port{keyPart(origin, item["name"], what + " name"), scalar(origin, item["type"], what + " type"),
-            ""};
+  Port port{keyPart(origin, item["name"], what + " name"),
+            scalar(origin, item["type"], what + " type"), ""};
   std::string problem;
   const auto type = Term::parse(port.type, &problem);
   if (!type) {
@@ -73,7 +73,8 @@ Port port(std::string_view origin, const YAML::Node& item, const std::string& wh
   if (const auto key = item["key"]) {
     port.key = scalar(origin, key, what + " key");
     if (input && port.key.rfind("mi-", 0) != 0) {
-      fail(origin, key, "the key of input '" + port.name + "' must start with 'mi-' (a meta input)");
+      fail(origin, key,
+           "the key of input '" + port.name + "' must start with 'mi-' (a meta input)");
     }
     if (auto bad = keyProblem(sampleKey(port.key))) {
       fail(origin, key, what + " key '" + port.key + "' is not a valid key: " + *bad);
@@ -107,20 +108,21 @@ void checkVariables(std::string_view origin, const YAML::Node& node, const Funct
   for (const auto& p : preconditions) {
     for (const auto& side : {p.left, p.right}) {
       if (p.disequality && isVariable(side) && !bound.count(side)) {
-        fail(origin, node, "functionality '" + f.name + "': variable " + side + " in '" +
-                               p.toString() + "' appears in no type and no atom");
+        fail(origin, node,
+             "functionality '" + f.name + "': variable " + side + " in '" + p.toString() +
+                 "' appears in no type and no atom");
       }
     }
     if (p.disequality && p.left == p.right) {
-      fail(origin, node, "functionality '" + f.name + "': precondition '" + p.toString() +
-                             "' can never hold");
+      fail(origin, node,
+           "functionality '" + f.name + "': precondition '" + p.toString() + "' can never hold");
     }
   }
   std::set<std::string> keys;
   for (const auto& p : f.outputs) {
     if (!keys.insert(p.outputKey()).second) {
-      fail(origin, node, "functionality '" + f.name + "' writes two outputs to the key '" +
-                             p.outputKey() + "'");
+      fail(origin, node,
+           "functionality '" + f.name + "' writes two outputs to the key '" + p.outputKey() + "'");
     }
   }
 }
@@ -243,6 +245,5 @@ std::string Descriptor::toYaml() const {
   out << YAML::EndSeq << YAML::EndMap;
   return out.c_str();
 }
-
 
 }  // namespace peis

@@ -32,7 +32,8 @@ std::optional<InformationGoal> parseInformation(std::string_view text, std::stri
     g.consumerPeis = std::string(target.substr(0, dot));
     g.consumerKey = std::string(target.substr(dot + 1));
     if (g.consumerKey.rfind("mi-", 0) != 0) {
-      if (problem) *problem = "the consumer key '" + g.consumerKey + "' must be a meta input (mi-…)";
+      if (problem)
+        *problem = "the consumer key '" + g.consumerKey + "' must be a meta input (mi-…)";
       return std::nullopt;
     }
   }

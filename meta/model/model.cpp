@@ -1,11 +1,12 @@
 // The model file (docs/configuration.md, "The model file"), link costs and
 // PEIS lookup of peis::meta::Model.
+#include "peis/meta/model.h"
+
 #include <charconv>
 #include <filesystem>
 
 #include "model/yaml_util.h"
 #include "peis/descriptor_yaml.h"
-#include "peis/meta/model.h"
 
 namespace peis::meta {
 namespace {
@@ -55,7 +56,8 @@ Fact factEntry(std::string_view origin, const YAML::Node& node) {
     if (node["publisher"]) f.publisher = yaml::scalar(origin, node["publisher"], "publisher");
   }
   f.atom = yaml::term(origin, atom, "fact");
-  if (!f.atom.isGround()) yaml::fail(origin, atom, "fact '" + f.atom.toString() + "' has a variable");
+  if (!f.atom.isGround())
+    yaml::fail(origin, atom, "fact '" + f.atom.toString() + "' has a variable");
   return f;
 }
 
@@ -83,7 +85,8 @@ Model parseModel(std::string_view text, std::string_view origin) {
           yaml::fail(origin, item, "PEIS '" + m.peis.back().name + "' is declared twice");
         }
         if (m.peis.back().id != 0 && m.peis[i].id == m.peis.back().id) {
-          yaml::fail(origin, item, "PEIS id " + std::to_string(m.peis.back().id) + " is used twice");
+          yaml::fail(origin, item,
+                     "PEIS id " + std::to_string(m.peis.back().id) + " is used twice");
         }
       }
     }

@@ -18,7 +18,8 @@ namespace peis::meta::yaml {
 [[noreturn]] inline void fail(std::string_view origin, const YAML::Node& node,
                               const std::string& why) {
   std::string where(origin);
-  if (node.IsDefined() && node.Mark().line >= 0) where += ":" + std::to_string(node.Mark().line + 1);
+  if (node.IsDefined() && node.Mark().line >= 0)
+    where += ":" + std::to_string(node.Mark().line + 1);
   throw Error(ErrorCode::InvalidConfig, where + ": " + why);
 }
 
@@ -35,7 +36,8 @@ inline void onlyKeys(std::string_view origin, const YAML::Node& map,
   }
 }
 
-inline std::string scalar(std::string_view origin, const YAML::Node& node, const std::string& what) {
+inline std::string scalar(std::string_view origin, const YAML::Node& node,
+                          const std::string& what) {
   if (!node) fail(origin, node, what + " is missing");
   if (!node.IsScalar()) fail(origin, node, what + " must be a plain value");
   return node.as<std::string>();
@@ -61,7 +63,7 @@ inline bool boolean(std::string_view origin, const YAML::Node& node, const std::
 }
 
 inline YAML::Node sequence(std::string_view origin, const YAML::Node& node,
-                                  const std::string& what) {
+                           const std::string& what) {
   if (!node.IsSequence()) fail(origin, node, what + " must be a list");
   return node;
 }
@@ -79,9 +81,9 @@ inline YAML::Node load(std::string_view text, std::string_view origin) {
   try {
     return YAML::Load(std::string(text));
   } catch (const YAML::Exception& e) {
-    throw Error(ErrorCode::InvalidConfig, std::string(origin) + ":" +
-                                              std::to_string(e.mark.line + 1) +
-                                              ": not valid YAML: " + e.msg);
+    throw Error(
+        ErrorCode::InvalidConfig,
+        std::string(origin) + ":" + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg);
   }
 }
 

@@ -94,9 +94,9 @@ struct Explainer {
     for (const auto& note : problem.notes) {
       if (note.find(": no value for") != std::string::npos) why += "; " + note;
     }
-    return why.empty() ? "every functionality producing " + t->functor +
-                             " produces it for other arguments"
-                       : why;
+    return why.empty()
+               ? "every functionality producing " + t->functor + " produces it for other arguments"
+               : why;
   }
 };
 

@@ -53,8 +53,8 @@ std::string formatText(const PlanResult& r) {
   }
   if (!r.configuration.links.empty()) out += "links:\n";
   for (const auto& l : r.configuration.links) {
-    out += "  " + l.toString() + "  " + l.information.toString() + ", " + toString(l.kind) +
-           " " + fixed(l.cost) + "\n";
+    out += "  " + l.toString() + "  " + l.information.toString() + ", " + toString(l.kind) + " " +
+           fixed(l.cost) + "\n";
   }
   return out;
 }
@@ -73,8 +73,8 @@ std::string formatJson(const PlanResult& r) {
            ",\"peisId\":" + std::to_string(i.peisId) + ",\"component\":" + quote(i.component) +
            ",\"functionality\":" + quote(i.functionality) + ",\"binding\":{";
     for (std::size_t b = 0; b < i.binding.size(); ++b) {
-      out += std::string(b ? "," : "") + quote(i.binding[b].first) + ":" +
-             quote(i.binding[b].second);
+      out +=
+          std::string(b ? "," : "") + quote(i.binding[b].first) + ":" + quote(i.binding[b].second);
     }
     out += "},\"activation\":" + quote(i.activation) + ",\"cost\":" + number(i.cost) + "}";
   }
@@ -83,8 +83,9 @@ std::string formatJson(const PlanResult& r) {
     const auto& l = r.configuration.links[k];
     out += std::string(k ? "," : "") + "{\"consumerPeis\":" + quote(l.consumerPeis) +
            ",\"consumerId\":" + std::to_string(l.consumerId) +
-           ",\"consumerKey\":" + quote(l.consumerKey) + ",\"producerPeis\":" +
-           quote(l.producerPeis) + ",\"producerId\":" + std::to_string(l.producerId) +
+           ",\"consumerKey\":" + quote(l.consumerKey) +
+           ",\"producerPeis\":" + quote(l.producerPeis) +
+           ",\"producerId\":" + std::to_string(l.producerId) +
            ",\"producerKey\":" + quote(l.producerKey) +
            ",\"information\":" + quote(l.information.toString()) +
            ",\"kind\":" + quote(toString(l.kind)) + ",\"cost\":" + number(l.cost) + "}";

@@ -229,8 +229,8 @@ bool selects(const ModelIndex& index, const InstanceSelector& s, const Template&
 
 std::string instanceName(const ModelIndex& index, const Instance& instance) {
   const auto& t = index.templates[instance.templ];
-  std::string text = index.model->peis[t.peis].name + "/" + t.component->component + "/" +
-                     t.functionality->name;
+  std::string text =
+      index.model->peis[t.peis].name + "/" + t.component->component + "/" + t.functionality->name;
   if (!instance.binding.empty()) {
     text += "{";
     for (std::size_t i = 0; i < instance.binding.size(); ++i) {
@@ -340,9 +340,10 @@ GroundProblem ground(const ModelIndex& index, const Goals& goals) {
     bool any = false;
     for (int ti = 0; ti < static_cast<int>(index.templates.size()); ++ti) {
       const auto& t = index.templates[ti];
-      if (!selects(index, InstanceSelector{r.instance.peis, r.instance.component,
-                                           r.instance.functionality, {}},
-                   t, {})) {
+      if (!selects(
+              index,
+              InstanceSelector{r.instance.peis, r.instance.component, r.instance.functionality, {}},
+              t, {})) {
         continue;
       }
       any = true;
@@ -458,7 +459,8 @@ GroundProblem ground(const ModelIndex& index, const Goals& goals) {
   std::unordered_map<std::string, std::vector<int>> byKey;
   for (int s = 0; s < static_cast<int>(problem.slots.size()); ++s) {
     if (problem.slots[s].consumerPeis >= 0) {
-      byKey[std::to_string(problem.slots[s].consumerPeis) + "|" + problem.slots[s].key].push_back(s);
+      byKey[std::to_string(problem.slots[s].consumerPeis) + "|" + problem.slots[s].key].push_back(
+          s);
     }
   }
   for (const auto& [key, list] : byKey) {

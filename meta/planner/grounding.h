@@ -38,8 +38,8 @@ struct ModelIndex {
   // "functor/arity" -> ground argument lists; facts, and what can be produced at all.
   std::unordered_map<std::string, std::vector<std::vector<std::string>>> facts, producible;
   std::unordered_map<std::string, bool> factSet, producibleSet;  // canonical text
-  std::vector<char> peisAlive;             // by PEIS index (setAlive changes it)
-  std::vector<InstanceSelector> failed;    // Model::failed plus setFailed
+  std::vector<char> peisAlive;           // by PEIS index (setAlive changes it)
+  std::vector<InstanceSelector> failed;  // Model::failed plus setFailed
 
   void build(const Model& m);
 };
@@ -54,10 +54,10 @@ struct Instance {
   Binding binding;
   double cost = 0;  // as counted (0 when preferred)
   Block block = Block::None;
-  std::vector<int> slots;                          // the inputs' slots (by input order)
-  std::vector<std::string> outputKeys;             // ground
-  std::vector<std::string> outputTerms;            // canonical
-  std::vector<int> exclusive;                      // instances writing one of the same keys
+  std::vector<int> slots;                // the inputs' slots (by input order)
+  std::vector<std::string> outputKeys;   // ground
+  std::vector<std::string> outputTerms;  // canonical
+  std::vector<int> exclusive;            // instances writing one of the same keys
 };
 
 struct Option {

@@ -50,7 +50,7 @@ class LmCut {
   void computeHmax(const std::vector<char>& isTrue);
 
   const RelaxedTask& task_;
-  int init_ = 0, goalFact_ = 0;  // the artificial facts
+  int init_ = 0, goalFact_ = 0;            // the artificial facts
   std::vector<std::vector<int>> preOf_;    // fact -> actions having it as precondition
   std::vector<std::vector<int>> addedBy_;  // fact -> actions adding it
   std::vector<std::vector<int>> pre_;      // per action, with init for empty ones

@@ -62,8 +62,13 @@ struct UnionFind {
 ActiveInstance activeInstance(const detail::ModelIndex& index, const detail::Instance& inst) {
   const auto& t = index.templates[inst.templ];
   const auto& peis = index.model->peis[t.peis];
-  return {peis.name,           peis.id,       t.component->component, t.functionality->name,
-          inst.binding,        t.functionality->activation, inst.cost};
+  return {peis.name,
+          peis.id,
+          t.component->component,
+          t.functionality->name,
+          inst.binding,
+          t.functionality->activation,
+          inst.cost};
 }
 
 }  // namespace
@@ -234,8 +239,7 @@ PlanResult ConfigurationPlanner::plan(const Goals& goals, const PlanOptions& opt
       if (solutions[p].found) continue;
       std::string goalsOfPart;
       for (std::size_t g = 0; g < problem.goalSlots.size(); ++g) {
-        if (localSlot[problem.goalSlots[g]] >= 0 &&
-            uf.find(n + problem.goalSlots[g]) == roots[p]) {
+        if (localSlot[problem.goalSlots[g]] >= 0 && uf.find(n + problem.goalSlots[g]) == roots[p]) {
           goalsOfPart += (goalsOfPart.empty() ? "" : ", ") + problem.goalNames[g];
         }
       }
@@ -261,8 +265,7 @@ PlanResult ConfigurationPlanner::plan(const Goals& goals, const PlanOptions& opt
     config.cost += sol.cost;
     for (int i = 0; i < static_cast<int>(part.insts.size()); ++i) {
       if (sol.active[i]) {
-        config.instances.push_back(
-            activeInstance(index, problem.instances[part.insts[i].global]));
+        config.instances.push_back(activeInstance(index, problem.instances[part.insts[i].global]));
       }
     }
     for (int s = 0; s < static_cast<int>(part.slots.size()); ++s) {

@@ -354,7 +354,8 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
     return true;
   };
   auto unwind = [&](std::vector<Step>& trail) {
-    for (auto it = trail.rbegin(); it != trail.rend(); ++it) state.undo(it->slot, it->option, it->activated);
+    for (auto it = trail.rbegin(); it != trail.rend(); ++it)
+      state.undo(it->slot, it->option, it->activated);
     trail.clear();
   };
   auto record = [&] {

@@ -67,7 +67,7 @@ class PartSearch {
   struct State;
   const Part& part_;
   RelaxedTask task_;
-  std::vector<int> linkBase_;  // first link action of each slot
+  std::vector<int> linkBase_;     // first link action of each slot
   std::vector<double> estimate_;  // h_add of each instance, for option order
   bool dag_ = false;              // no cycle of producers can form
 };

@@ -56,16 +56,19 @@ int plan(const std::vector<std::string>& args) {
     }
   }
   if (modelFile.empty()) {
-    throw std::invalid_argument("--model FILE is required (planning on the live ecology comes with "
-                                "the configurator)");
+    throw std::invalid_argument(
+        "--model FILE is required (planning on the live ecology comes with "
+        "the configurator)");
   }
   auto goals = peis::meta::Goals::fromArguments(goalArgs);
   if (!goalsFile.empty()) {
     auto more = peis::meta::Goals::fromFile(goalsFile);
-    goals.information.insert(goals.information.end(), more.information.begin(), more.information.end());
+    goals.information.insert(goals.information.end(), more.information.begin(),
+                             more.information.end());
     goals.run.insert(goals.run.end(), more.run.begin(), more.run.end());
     auto& c = goals.constraints;
-    c.avoidPeis.insert(c.avoidPeis.end(), more.constraints.avoidPeis.begin(), more.constraints.avoidPeis.end());
+    c.avoidPeis.insert(c.avoidPeis.end(), more.constraints.avoidPeis.begin(),
+                       more.constraints.avoidPeis.end());
     c.avoid.insert(c.avoid.end(), more.constraints.avoid.begin(), more.constraints.avoid.end());
     c.prefer.insert(c.prefer.end(), more.constraints.prefer.begin(), more.constraints.prefer.end());
   }
@@ -81,7 +84,8 @@ int plan(const std::vector<std::string>& args) {
 
 // check --model FILE: reads a model file (and the descriptors it names).
 int check(const std::vector<std::string>& args) {
-  if (args.size() != 2 || args[0] != "--model") throw std::invalid_argument("usage: check --model FILE");
+  if (args.size() != 2 || args[0] != "--model")
+    throw std::invalid_argument("usage: check --model FILE");
   const auto model = peis::meta::Model::fromFile(args[1]);
   std::size_t functionalities = 0;
   for (const auto& p : model.peis) {
@@ -100,7 +104,8 @@ const std::vector<Subcommand> kSubcommands = {
 
 void help() {
   std::cout << "Usage: peis-config SUBCOMMAND [ARGS]   (also: peis config SUBCOMMAND …)\n\n";
-  for (const auto& s : kSubcommands) std::cout << "  " << s.usage << "\n      " << s.summary << "\n";
+  for (const auto& s : kSubcommands)
+    std::cout << "  " << s.usage << "\n      " << s.summary << "\n";
   std::cout << R"(
 Goals (one per argument):
   TERM                  information that must be produced, e.g. 'activity(johanna,kitchen)'

@@ -58,7 +58,8 @@ int main(int argc, char** argv) {
     peis::meta::task::TaskPlanOptions options;
     options.timeLimit = std::chrono::milliseconds(timeLimitMs);
     const auto plan = peis::meta::task::planTask(domain, problem, options);
-    std::cout << (json ? peis::meta::task::formatJson(plan) + "\n" : peis::meta::task::formatText(plan));
+    std::cout << (json ? peis::meta::task::formatJson(plan) + "\n"
+                       : peis::meta::task::formatText(plan));
     return plan.found ? 0 : 1;
   } catch (const peis::Error& e) {
     std::cerr << "peis-plan: " << e.what() << "\n";

@@ -40,7 +40,8 @@ std::string formatJson(const TaskPlan& plan) {
   for (std::size_t i = 0; i < plan.steps.size(); ++i) {
     const auto& s = plan.steps[i];
     out += std::string(i ? "," : "") + "{\"action\":" + quote(s.action) + ",\"arguments\":[";
-    for (std::size_t a = 0; a < s.arguments.size(); ++a) out += (a ? "," : "") + quote(s.arguments[a]);
+    for (std::size_t a = 0; a < s.arguments.size(); ++a)
+      out += (a ? "," : "") + quote(s.arguments[a]);
     out += "],\"cost\":" + number(s.cost) + ",\"needs\":[";
     for (std::size_t n = 0; n < s.needs.size(); ++n) out += (n ? "," : "") + quote(s.needs[n]);
     out += "]}";
@@ -48,7 +49,8 @@ std::string formatJson(const TaskPlan& plan) {
   out += "],\"statesExpanded\":" + std::to_string(plan.statesExpanded) +
          ",\"statesGenerated\":" + std::to_string(plan.statesGenerated) +
          ",\"groundActions\":" + std::to_string(plan.groundActions) +
-         ",\"milliseconds\":" + number(plan.milliseconds) + ",\"reason\":" + quote(plan.reason) + "}";
+         ",\"milliseconds\":" + number(plan.milliseconds) + ",\"reason\":" + quote(plan.reason) +
+         "}";
   return out;
 }
 

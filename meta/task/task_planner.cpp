@@ -170,7 +170,9 @@ TaskPlan planTask(const Domain& domain, const Problem& problem, const TaskPlanOp
             if (!type.empty() && !reachable.count(type + "(" + b[var] + ")")) return;
           }
           for (const auto& l : a.preconditions) {
-            if (l.atom.functor == "!=" && substitute(l.atom, b).args[0] == substitute(l.atom, b).args[1]) return;
+            if (l.atom.functor == "!=" &&
+                substitute(l.atom, b).args[0] == substitute(l.atom, b).args[1])
+              return;
           }
           found.push_back(b);
           return;
@@ -357,8 +359,7 @@ TaskPlan planTask(const Domain& domain, const Problem& problem, const TaskPlanOp
   }
   plan.milliseconds = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
   if (goalNode < 0) {
-    plan.reason = cut ? "no plan found before the limit"
-                      : "no plan: the goal is unreachable";
+    plan.reason = cut ? "no plan found before the limit" : "no plan: the goal is unreachable";
     return plan;
   }
   plan.found = true;

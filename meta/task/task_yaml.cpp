@@ -15,7 +15,8 @@ Literal literal(std::string_view origin, const YAML::Node& node, const std::stri
     text = text.substr(4);
   }
   if (text.find("!=") != std::string::npos) {
-    if (!allowDisequality || l.negated) yaml::fail(origin, node, what + " '" + text + "': a disequality is only a precondition");
+    if (!allowDisequality || l.negated)
+      yaml::fail(origin, node, what + " '" + text + "': a disequality is only a precondition");
     std::string problem;
     auto p = Precondition::parse(text, &problem);
     if (!p) yaml::fail(origin, node, what + " '" + text + "': " + problem);
@@ -42,11 +43,14 @@ Action action(std::string_view origin, const YAML::Node& node) {
   }
   std::set<std::string> known;
   if (const auto params = node["parameters"]) {
-    if (!params.IsMap()) yaml::fail(origin, params, "parameters must be a mapping: {name: type, …}");
+    if (!params.IsMap())
+      yaml::fail(origin, params, "parameters must be a mapping: {name: type, …}");
     for (const auto& item : params) {
       const auto var = variableName(yaml::scalar(origin, item.first, "parameter"));
-      const auto type = item.second.IsNull() ? std::string() : yaml::scalar(origin, item.second, "parameter type");
-      if (!known.insert(var).second) yaml::fail(origin, item.first, "parameter " + var + " is declared twice");
+      const auto type = item.second.IsNull() ? std::string()
+                                             : yaml::scalar(origin, item.second, "parameter type");
+      if (!known.insert(var).second)
+        yaml::fail(origin, item.first, "parameter " + var + " is declared twice");
       a.parameters.push_back({var, type});
     }
   }
@@ -62,8 +66,9 @@ Action action(std::string_view origin, const YAML::Node& node) {
   auto checkBound = [&](const Term& t, const YAML::Node& where) {
     for (const auto& v : t.variables()) {
       if (!bound.count(v)) {
-        yaml::fail(origin, where, "variable " + v + " of action " + a.name +
-                                      " is neither a parameter nor in a positive precondition");
+        yaml::fail(origin, where,
+                   "variable " + v + " of action " + a.name +
+                       " is neither a parameter nor in a positive precondition");
       }
     }
   };
@@ -91,8 +96,9 @@ Action action(std::string_view origin, const YAML::Node& node) {
           ++end;
         }
         if (!bound.count(sample.substr(at, end - at))) {
-          yaml::fail(origin, item, "need '" + text + "' uses " + sample.substr(at, end - at) +
-                                       ", which is not a variable of the action");
+          yaml::fail(origin, item,
+                     "need '" + text + "' uses " + sample.substr(at, end - at) +
+                         ", which is not a variable of the action");
         }
         sample.replace(at, end - at, "x");
       }
@@ -130,13 +136,15 @@ Problem parseProblem(std::string_view text, std::string_view origin) {
   p.name = yaml::scalar(origin, root["problem"], "problem");
   p.domain = yaml::scalar(origin, root["domain"], "domain");
   if (const auto objects = root["objects"]) {
-    if (!objects.IsMap()) yaml::fail(origin, objects, "objects must be a mapping: {object: type, …}");
+    if (!objects.IsMap())
+      yaml::fail(origin, objects, "objects must be a mapping: {object: type, …}");
     for (const auto& item : objects) {
       const auto name = yaml::scalar(origin, item.first, "object");
       if (auto t = Term::parse(name); !t || !t->args.empty() || isVariable(name)) {
         yaml::fail(origin, item.first, "object '" + name + "' must be one word");
       }
-      p.objects.push_back({name, item.second.IsNull() ? "" : yaml::scalar(origin, item.second, "type")});
+      p.objects.push_back(
+          {name, item.second.IsNull() ? "" : yaml::scalar(origin, item.second, "type")});
     }
   }
   if (const auto init = root["init"]) {

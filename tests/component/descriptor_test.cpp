@@ -290,7 +290,8 @@ TEST_CASE("typed ports, keys, activation and preconditions", "[unit][descriptor]
   CHECK(f.outputs[0].outputKey() == "position.?robot");
   CHECK(f.outputs[1].type == "activity(?robot,kitchen)");
   CHECK(f.outputs[1].outputKey() == "seen.?robot");
-  CHECK(f.preconditions == std::vector<std::string>{"in-view(?robot,?a)", "in-view(?robot,?b)", "?a != ?b"});
+  CHECK(f.preconditions ==
+        std::vector<std::string>{"in-view(?robot,?a)", "in-view(?robot,?b)", "?a != ?b"});
   CHECK(f.activation == "tracking");
   CHECK(peis::formatPorts(f.inputs) == "left:image(?a) right:image(?b)@mi-cam.?b");
   const auto again = Descriptor::fromYaml(d.toYaml(), "<round trip>");
@@ -321,12 +322,18 @@ TEST_CASE("bad typed descriptors are errors with file:line", "[unit][descriptor]
              StartsWith("camera.yaml:4:") && Contains("must start with 'mi-'"));
   CHECK_THAT(failure(head + "    outputs: [{name: x, type: t, key: \"a..b\"}]\n"),
              StartsWith("camera.yaml:4:") && Contains("not a valid key"));
-  CHECK_THAT(failure(head + "    preconditions: [\"bad(\"]\n"), StartsWith("camera.yaml:4:") && Contains("precondition"));
-  CHECK_THAT(failure(head + "    outputs: [{name: x, type: t}]\n    preconditions: [\"?q != a\"]\n"),
-             Contains("?q") && Contains("appears in no type"));
-  CHECK_THAT(failure(head + "    outputs: [{name: x, type: \"t(?a)\"}]\n    preconditions: [\"?a != ?a\"]\n"),
-             Contains("can never hold"));
-  CHECK_THAT(failure(head + "    outputs: [{name: x, type: t, key: k}, {name: y, type: u, key: k}]\n"),
-             Contains("two outputs to the key 'k'"));
-  CHECK_THAT(failure(head + "    activation: \"a b\"\n"), StartsWith("camera.yaml:4:") && Contains("actuator"));
+  CHECK_THAT(failure(head + "    preconditions: [\"bad(\"]\n"),
+             StartsWith("camera.yaml:4:") && Contains("precondition"));
+  CHECK_THAT(
+      failure(head + "    outputs: [{name: x, type: t}]\n    preconditions: [\"?q != a\"]\n"),
+      Contains("?q") && Contains("appears in no type"));
+  CHECK_THAT(
+      failure(head +
+              "    outputs: [{name: x, type: \"t(?a)\"}]\n    preconditions: [\"?a != ?a\"]\n"),
+      Contains("can never hold"));
+  CHECK_THAT(
+      failure(head + "    outputs: [{name: x, type: t, key: k}, {name: y, type: u, key: k}]\n"),
+      Contains("two outputs to the key 'k'"));
+  CHECK_THAT(failure(head + "    activation: \"a b\"\n"),
+             StartsWith("camera.yaml:4:") && Contains("actuator"));
 }

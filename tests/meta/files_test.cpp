@@ -52,17 +52,35 @@ failed: ["a/c/f{?v=1}"]
   CHECK(Model::fromYaml(m.toYaml(), "again") == m);
   CHECK(m.findPeis("3") == &m.peis[0]);
 
-  CHECK_THAT(failure([] { Model::fromYaml("peis: [\n", "m.yaml"); }), StartsWith("m.yaml:") && Contains("not valid YAML"));
-  CHECK_THAT(failure([] { Model::fromYaml("peis: []\nbogus: 1\n", "m.yaml"); }), StartsWith("m.yaml:2:") && Contains("unknown key 'bogus'"));
-  CHECK_THAT(failure([] { Model::fromYaml("peis:\n  - {name: a}\n  - {name: a}\n", "m.yaml"); }), StartsWith("m.yaml:3:") && Contains("declared twice"));
-  CHECK_THAT(failure([] { Model::fromYaml("facts: [\"p(?x)\"]\n", "m.yaml"); }), StartsWith("m.yaml:1:") && Contains("variable"));
-  CHECK_THAT(failure([] { Model::fromYaml("peis:\n  - name: a\n    components:\n      - component: c\n        functionalities: [{name: f, cost: -1}]\n", "m.yaml"); }),
+  CHECK_THAT(failure([] { Model::fromYaml("peis: [\n", "m.yaml"); }),
+             StartsWith("m.yaml:") && Contains("not valid YAML"));
+  CHECK_THAT(failure([] { Model::fromYaml("peis: []\nbogus: 1\n", "m.yaml"); }),
+             StartsWith("m.yaml:2:") && Contains("unknown key 'bogus'"));
+  CHECK_THAT(failure([] { Model::fromYaml("peis:\n  - {name: a}\n  - {name: a}\n", "m.yaml"); }),
+             StartsWith("m.yaml:3:") && Contains("declared twice"));
+  CHECK_THAT(failure([] { Model::fromYaml("facts: [\"p(?x)\"]\n", "m.yaml"); }),
+             StartsWith("m.yaml:1:") && Contains("variable"));
+  CHECK_THAT(failure([] {
+               Model::fromYaml(
+                   "peis:\n  - name: a\n    components:\n      - component: c\n        "
+                   "functionalities: [{name: f, cost: -1}]\n",
+                   "m.yaml");
+             }),
              StartsWith("m.yaml:5:") && Contains("cost"));
-  CHECK_THAT(failure([] { Model::fromYaml("peis:\n  - name: a\n    components: [{descriptor: /nonexistent.yaml}]\n", "m.yaml"); }),
+  CHECK_THAT(failure([] {
+               Model::fromYaml(
+                   "peis:\n  - name: a\n    components: [{descriptor: /nonexistent.yaml}]\n",
+                   "m.yaml");
+             }),
              StartsWith("m.yaml:3:") && Contains("cannot open"));
-  CHECK_THAT(failure([] { Model::fromYaml("link-overrides: [{producer: x, consumer: y, cost: 1}]\n", "m.yaml"); }), Contains("unknown PEIS 'x'"));
-  CHECK_THAT(failure([] { Model::fromYaml("peis:\n  - {name: a, id: -4}\n", "m.yaml"); }), StartsWith("m.yaml:2:") && Contains("id"));
-  CHECK_THAT(failure([] { Model::fromFile("/nonexistent/model.yaml"); }), Contains("cannot open the model file"));
+  CHECK_THAT(failure([] {
+               Model::fromYaml("link-overrides: [{producer: x, consumer: y, cost: 1}]\n", "m.yaml");
+             }),
+             Contains("unknown PEIS 'x'"));
+  CHECK_THAT(failure([] { Model::fromYaml("peis:\n  - {name: a, id: -4}\n", "m.yaml"); }),
+             StartsWith("m.yaml:2:") && Contains("id"));
+  CHECK_THAT(failure([] { Model::fromFile("/nonexistent/model.yaml"); }),
+             Contains("cannot open the model file"));
 }
 
 TEST_CASE("goals from a file and from arguments", "[unit][meta-files]") {
@@ -85,18 +103,28 @@ prefer: [vac/cleaner/odometry]
   CHECK(g.constraints.avoidPeis == std::vector<std::string>{"cam2"});
   CHECK(g.constraints.avoid.at(0).functionality == "track");
   CHECK(Goals::fromYaml(g.toYaml(), "again").information.size() == 2);
-  const auto a = Goals::fromArguments({"position(vac)@vac.mi-position", "run:vac/cleaner/clean", "avoid:cam2", "prefer:*/tracker/track"});
+  const auto a = Goals::fromArguments({"position(vac)@vac.mi-position", "run:vac/cleaner/clean",
+                                       "avoid:cam2", "prefer:*/tracker/track"});
   CHECK(a.information.size() == 1);
   CHECK(a.run.size() == 1);
   CHECK(a.constraints.prefer.at(0).peis.empty());
 
-  CHECK_THAT(failure([] { Goals::fromYaml("goals:\n  - \"position(?r)\"\n", "g.yaml"); }), StartsWith("g.yaml:2:") && Contains("variables"));
-  CHECK_THAT(failure([] { Goals::fromYaml("goals:\n  - x@vac\n", "g.yaml"); }), StartsWith("g.yaml:2:") && Contains("PEIS.KEY"));
-  CHECK_THAT(failure([] { Goals::fromYaml("goals:\n  - x@vac.position\n", "g.yaml"); }), Contains("meta input"));
-  CHECK_THAT(failure([] { Goals::fromYaml("goals:\n  - {run: a/b/c, information: x}\n", "g.yaml"); }), StartsWith("g.yaml:2:") && Contains("not both"));
-  CHECK_THAT(failure([] { Goals::fromYaml("wishes: []\n", "g.yaml"); }), StartsWith("g.yaml:1:") && Contains("unknown key 'wishes'"));
+  CHECK_THAT(failure([] { Goals::fromYaml("goals:\n  - \"position(?r)\"\n", "g.yaml"); }),
+             StartsWith("g.yaml:2:") && Contains("variables"));
+  CHECK_THAT(failure([] { Goals::fromYaml("goals:\n  - x@vac\n", "g.yaml"); }),
+             StartsWith("g.yaml:2:") && Contains("PEIS.KEY"));
+  CHECK_THAT(failure([] { Goals::fromYaml("goals:\n  - x@vac.position\n", "g.yaml"); }),
+             Contains("meta input"));
+  CHECK_THAT(
+      failure([] { Goals::fromYaml("goals:\n  - {run: a/b/c, information: x}\n", "g.yaml"); }),
+      StartsWith("g.yaml:2:") && Contains("not both"));
+  CHECK_THAT(failure([] { Goals::fromYaml("wishes: []\n", "g.yaml"); }),
+             StartsWith("g.yaml:1:") && Contains("unknown key 'wishes'"));
   CHECK_THAT(failure([] { Goals::fromYaml("goals: [\n", "g.yaml"); }), Contains("not valid YAML"));
-  CHECK_THAT(failure([] { Goals::fromArguments({"ok", "run:vac"}); }), Contains("argument 2") && Contains("PEIS/COMPONENT/FUNCTIONALITY"));
+  CHECK_THAT(failure([] {
+               Goals::fromArguments({"ok", "run:vac"});
+             }),
+             Contains("argument 2") && Contains("PEIS/COMPONENT/FUNCTIONALITY"));
   CHECK_THAT(failure([] { Goals::fromArguments({"f(a"}); }), Contains("argument 1"));
   CHECK_THAT(failure([] { Goals::fromArguments({"prefer:a/b/c{x}"}); }), Contains("?var=value"));
 }
@@ -139,13 +167,31 @@ goal: [lifted, "at(r, c)"]
   CHECK_FALSE(none.found);
   CHECK_THAT(task::formatText(none), Contains("no plan") && Contains("states searched"));
 
-  CHECK_THAT(failure([] { task::Domain::fromYaml("domain: d\nactions:\n  - name: X\n    effects: [\"p(?q)\"]\n", "d.yaml"); }),
+  CHECK_THAT(failure([] {
+               task::Domain::fromYaml(
+                   "domain: d\nactions:\n  - name: X\n    effects: [\"p(?q)\"]\n", "d.yaml");
+             }),
              StartsWith("d.yaml:4:") && Contains("?q"));
-  CHECK_THAT(failure([] { task::Domain::fromYaml("domain: d\nactions:\n  - name: X\n", "d.yaml"); }), StartsWith("d.yaml:3:") && Contains("no effects"));
-  CHECK_THAT(failure([] { task::Domain::fromYaml("domain: d\nactions:\n  - {name: X, effects: [p], speed: 1}\n", "d.yaml"); }), StartsWith("d.yaml:3:") && Contains("speed"));
-  CHECK_THAT(failure([] { task::Domain::fromYaml("domain: d\nactions:\n  - {name: X, effects: [p], needs: [\"q(?z)\"]}\n", "d.yaml"); }), Contains("?z"));
-  CHECK_THAT(failure([] { task::Problem::fromYaml("problem: p\ndomain: d\ngoal: [\"q(?x)\"]\n", "p.yaml"); }), StartsWith("p.yaml:3:") && Contains("variables"));
-  CHECK_THAT(failure([] { task::Problem::fromYaml("problem: p\ndomain: d\n", "p.yaml"); }), Contains("goal is missing"));
+  CHECK_THAT(
+      failure([] { task::Domain::fromYaml("domain: d\nactions:\n  - name: X\n", "d.yaml"); }),
+      StartsWith("d.yaml:3:") && Contains("no effects"));
+  CHECK_THAT(failure([] {
+               task::Domain::fromYaml(
+                   "domain: d\nactions:\n  - {name: X, effects: [p], speed: 1}\n", "d.yaml");
+             }),
+             StartsWith("d.yaml:3:") && Contains("speed"));
+  CHECK_THAT(failure([] {
+               task::Domain::fromYaml(
+                   "domain: d\nactions:\n  - {name: X, effects: [p], needs: [\"q(?z)\"]}\n",
+                   "d.yaml");
+             }),
+             Contains("?z"));
+  CHECK_THAT(failure([] {
+               task::Problem::fromYaml("problem: p\ndomain: d\ngoal: [\"q(?x)\"]\n", "p.yaml");
+             }),
+             StartsWith("p.yaml:3:") && Contains("variables"));
+  CHECK_THAT(failure([] { task::Problem::fromYaml("problem: p\ndomain: d\n", "p.yaml"); }),
+             Contains("goal is missing"));
   CHECK_THAT(failure([&] {
                auto other = p;
                other.domain.assign(1, 'e');  // (= "e" trips a GCC 12 -Wrestrict false positive)

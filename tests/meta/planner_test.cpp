@@ -110,7 +110,8 @@ TEST_CASE("the vacuum cleaner gets its position from the tracker", "[unit][plann
 TEST_CASE("one tracker serves two robots and its cameras are paid once", "[unit][planner]") {
   const auto model = Model::fromYaml(kHome, "home.yaml");
   ConfigurationPlanner planner(model);
-  const auto goals = goalsOf({"position(vac)@vac.mi-position", "position(pippi)@pippi.mi-position"});
+  const auto goals =
+      goalsOf({"position(vac)@vac.mi-position", "position(pippi)@pippi.mi-position"});
   const auto r = planner.plan(goals);
   requireValid(model, goals, r);
   CHECK(r.status == PlanStatus::Optimal);
@@ -135,7 +136,8 @@ TEST_CASE("a dead camera: the fallback, or an explanation", "[unit][planner]") {
     CHECK(r.configuration.links.at(0).toString() == "vac.mi-position <- vac.odometry");
   }
   SECTION("without the fallback, the explanation names the dead camera") {
-    model.peis[3].components[0].functionalities.erase(model.peis[3].components[0].functionalities.begin());
+    model.peis[3].components[0].functionalities.erase(
+        model.peis[3].components[0].functionalities.begin());
     model.peis[1].alive = false;
     ConfigurationPlanner planner(model);
     const auto r = planner.plan(goalsOf({"position(vac)@vac.mi-position"}));
@@ -150,7 +152,8 @@ TEST_CASE("a dead camera: the fallback, or an explanation", "[unit][planner]") {
   }
   SECTION("a false precondition is named") {
     model.facts.clear();
-    model.peis[3].components[0].functionalities.erase(model.peis[3].components[0].functionalities.begin());
+    model.peis[3].components[0].functionalities.erase(
+        model.peis[3].components[0].functionalities.begin());
     ConfigurationPlanner planner(model);
     const auto r = planner.plan(goalsOf({"position(vac)@vac.mi-position"}));
     CHECK(r.status == PlanStatus::Infeasible);
@@ -166,10 +169,11 @@ TEST_CASE("goals naming unknown things are errors that name the goal", "[unit][p
                         Contains("no functionality in the model produces 'temperature'"));
   CHECK_THROWS_WITH(planner.plan(goalsOf({"position(vac)@nobody.mi-position"})),
                     Contains("unknown PEIS 'nobody'"));
-  CHECK_THROWS_WITH(planner.plan(goalsOf({"run:vac/cleaner/fly"})), Contains("no such functionality"));
+  CHECK_THROWS_WITH(planner.plan(goalsOf({"run:vac/cleaner/fly"})),
+                    Contains("no such functionality"));
   CHECK_THROWS_WITH(planner.plan(goalsOf({"position(vac)", "avoid:mars"})), Contains("'mars'"));
-  const auto goals = Goals::fromYaml("goals:\n  - position(vac)\n  - weather(today)@vac.mi-weather\n",
-                                     "goals.yaml");
+  const auto goals = Goals::fromYaml(
+      "goals:\n  - position(vac)\n  - weather(today)@vac.mi-weather\n", "goals.yaml");
   CHECK_THROWS_WITH(planner.plan(goals), Contains("goals.yaml:3") && Contains("weather"));
 }
 
@@ -189,7 +193,8 @@ TEST_CASE("run goals, avoid and prefer", "[unit][planner]") {
     CHECK(r.configuration.cost == Approx(9.1));
   }
   SECTION("avoiding an instance") {
-    const auto goals = goalsOf({"position(vac)@vac.mi-position", "avoid:ceiling/tracker/track{?robot=vac}"});
+    const auto goals =
+        goalsOf({"position(vac)@vac.mi-position", "avoid:ceiling/tracker/track{?robot=vac}"});
     const auto r = planner.plan(goals);
     requireValid(model, goals, r);
     CHECK(r.configuration.cost == Approx(9.1));
@@ -307,7 +312,8 @@ TEST_CASE("replanning after a failure, warm-started, finds the new optimum", "[u
   }
 }
 
-TEST_CASE("optimal on 10,000 random small models (exhaustive search)", "[unit][planner][optimality]") {
+TEST_CASE("optimal on 10,000 random small models (exhaustive search)",
+          "[unit][planner][optimality]") {
   std::mt19937 rng(20240601);
   int checked = 0, feasible = 0, withVariables = 0, shared = 0;
   while (checked < 10000) {
@@ -354,7 +360,8 @@ TEST_CASE("optimal on 10,000 random small models (exhaustive search)", "[unit][p
     if (r.status != PlanStatus::Optimal || std::abs(r.configuration.cost - *expected) > 1e-9) {
       FAIL(describe());
     }
-    if (const auto problem = reference::validate(p.model, p.goals, r.configuration); !problem.empty()) {
+    if (const auto problem = reference::validate(p.model, p.goals, r.configuration);
+        !problem.empty()) {
       FAIL(problem << "\n" << describe());
     }
     for (const auto& i : r.configuration.instances) withVariables += !i.binding.empty();
@@ -368,7 +375,8 @@ TEST_CASE("optimal on 10,000 random small models (exhaustive search)", "[unit][p
   CHECK(shared > 300);
 }
 
-TEST_CASE("optimal on mid-size models against a MILP solver (GLPK)", "[unit][planner][optimality]") {
+TEST_CASE("optimal on mid-size models against a MILP solver (GLPK)",
+          "[unit][planner][optimality]") {
   std::mt19937 rng(42);
   int compared = 0;
   for (int trial = 0; trial < 40; ++trial) {

@@ -35,7 +35,8 @@ Problem smallRandom(std::mt19937& rng) {
   const char* cams[] = {"c1", "c2"};
   for (auto r : robots) {
     for (auto c : cams) {
-      if (chance(rng, 0.6)) m.facts.push_back({*Term::parse(std::string("sees(") + r + "," + c + ")"), ""});
+      if (chance(rng, 0.6))
+        m.facts.push_back({*Term::parse(std::string("sees(") + r + "," + c + ")"), ""});
     }
   }
   const int count = uniform(rng, 2, 7);
@@ -76,7 +77,8 @@ Problem smallRandom(std::mt19937& rng) {
         f.preconditions = {"robot(?r)"};
         break;
       default:  // a camera that also produces the map
-        f.outputs = {port("img", "img(" + c + ")", "img-" + c + suffix), port("map", "map", "map2" + suffix)};
+        f.outputs = {port("img", "img(" + c + ")", "img-" + c + suffix),
+                     port("map", "map", "map2" + suffix)};
         break;
     }
     m.peis[uniform(rng, 0, peisCount - 1)].components[0].functionalities.push_back(f);
@@ -94,16 +96,21 @@ Problem smallRandom(std::mt19937& rng) {
     }
     p.goals.information.push_back(goal);
   }
-  if (chance(rng, 0.1)) p.goals.constraints.avoidPeis.push_back("p" + std::to_string(uniform(rng, 0, peisCount - 1)));
+  if (chance(rng, 0.1))
+    p.goals.constraints.avoidPeis.push_back("p" + std::to_string(uniform(rng, 0, peisCount - 1)));
   if (chance(rng, 0.1)) {
-    p.goals.constraints.prefer.push_back(*InstanceSelector::parse(
-        "p" + std::to_string(uniform(rng, 0, peisCount - 1)) + "/c/f" + std::to_string(uniform(rng, 0, count - 1)),
-        nullptr));
+    p.goals.constraints.prefer.push_back(
+        *InstanceSelector::parse("p" + std::to_string(uniform(rng, 0, peisCount - 1)) + "/c/f" +
+                                     std::to_string(uniform(rng, 0, count - 1)),
+                                 nullptr));
   }
   if (chance(rng, 0.1)) {
-    p.goals.constraints.avoid.push_back(*InstanceSelector::parse("*/c/f" + std::to_string(uniform(rng, 0, count - 1)), nullptr));
+    p.goals.constraints.avoid.push_back(
+        *InstanceSelector::parse("*/c/f" + std::to_string(uniform(rng, 0, count - 1)), nullptr));
   }
-  if (chance(rng, 0.1)) m.failed.push_back(*InstanceSelector::parse("*/c/f" + std::to_string(uniform(rng, 0, count - 1)), nullptr));
+  if (chance(rng, 0.1))
+    m.failed.push_back(
+        *InstanceSelector::parse("*/c/f" + std::to_string(uniform(rng, 0, count - 1)), nullptr));
   return p;
 }
 
@@ -124,8 +131,9 @@ Problem sensing(std::mt19937& rng, int functionalities) {
     for (int k = 0; k < kSensorKinds; ++k) {
       const int copies = chance(rng, 0.5) ? 2 : 1;
       for (int c = 0; c < copies && made < functionalities; ++c, ++made) {
-        auto& node = peisNamed(m, "s" + std::to_string(room) + "-" + std::to_string(k) + "-" + std::to_string(c), id++,
-                               chance(rng, 0.7));
+        auto& node = peisNamed(
+            m, "s" + std::to_string(room) + "-" + std::to_string(k) + "-" + std::to_string(c), id++,
+            chance(rng, 0.7));
         Functionality f;
         f.name = "sense";
         f.cost = uniform(rng, 1, 3);
@@ -147,11 +155,13 @@ Problem sensing(std::mt19937& rng, int functionalities) {
       std::vector<std::string> used;
       for (int i = 0; i < inputs; ++i) {
         const bool lower = j > 0 && chance(rng, 0.3);
-        const auto type = lower ? "concept" + std::to_string(uniform(rng, 0, j - 1)) + "(?r)"
-                                : "sensor" + std::to_string(uniform(rng, 0, kSensorKinds - 1)) + "(?r)";
+        const auto type =
+            lower ? "concept" + std::to_string(uniform(rng, 0, j - 1)) + "(?r)"
+                  : "sensor" + std::to_string(uniform(rng, 0, kSensorKinds - 1)) + "(?r)";
         if (std::find(used.begin(), used.end(), type) != used.end()) continue;
         used.push_back(type);
-        f.inputs.push_back(port("in" + std::to_string(i), type, "mi-" + f.name + "-" + std::to_string(i) + ".?r"));
+        f.inputs.push_back(
+            port("in" + std::to_string(i), type, "mi-" + f.name + "-" + std::to_string(i) + ".?r"));
       }
       // Each inference runs on one PC, for every room it is asked about.
       m.peis[uniform(rng, 0, pcs - 1)].components[0].functionalities.push_back(f);
@@ -160,8 +170,8 @@ Problem sensing(std::mt19937& rng, int functionalities) {
   const int goals = uniform(rng, 1, 3);
   for (int g = 0; g < goals; ++g) {
     InformationGoal goal;
-    goal.information = *Term::parse("concept" + std::to_string(uniform(rng, 0, kConcepts - 1)) + "(room" +
-                                    std::to_string(uniform(rng, 0, rooms - 1)) + ")");
+    goal.information = *Term::parse("concept" + std::to_string(uniform(rng, 0, kConcepts - 1)) +
+                                    "(room" + std::to_string(uniform(rng, 0, rooms - 1)) + ")");
     goal.consumerPeis = m.peis[uniform(rng, 0, pcs - 1)].name;
     goal.consumerKey = "mi-goal" + std::to_string(g);
     p.goals.information.push_back(goal);
@@ -175,8 +185,11 @@ Problem layered(std::mt19937& rng, int functionalities, int goalCount) {
   constexpr int kLayers = 5;
   const int typesPerLayer = std::max(1, functionalities / (kLayers * 2));
   const int peisCount = std::max(2, functionalities / 20);
-  for (int i = 0; i < peisCount; ++i) peisNamed(m, "n" + std::to_string(i), i + 1, chance(rng, 0.1));
-  auto typeName = [](int layer, int t) { return "t" + std::to_string(layer) + "_" + std::to_string(t); };
+  for (int i = 0; i < peisCount; ++i)
+    peisNamed(m, "n" + std::to_string(i), i + 1, chance(rng, 0.1));
+  auto typeName = [](int layer, int t) {
+    return "t" + std::to_string(layer) + "_" + std::to_string(t);
+  };
   int made = 0;
   for (int layer = 0; layer < kLayers; ++layer) {
     for (int t = 0; t < typesPerLayer; ++t) {

@@ -174,10 +174,12 @@ std::optional<Ground> groundNaively(const Model& model, const Goals& goals,
             if (matches(s, peis, d.component, f.name, v)) inst.cost = 0;
           }
           for (const auto& port : f.inputs) {
-            inst.inputs.push_back({subst(port.inputKey(), v), Term::parse(subst(port.type, v))->toString()});
+            inst.inputs.push_back(
+                {subst(port.inputKey(), v), Term::parse(subst(port.type, v))->toString()});
           }
           for (const auto& port : f.outputs) {
-            inst.outputs.push_back({subst(port.outputKey(), v), Term::parse(subst(port.type, v))->toString()});
+            inst.outputs.push_back(
+                {subst(port.outputKey(), v), Term::parse(subst(port.type, v))->toString()});
           }
           ground.instances.push_back(std::move(inst));
           if (ground.instances.size() > maxInstances) tooMany = true;
@@ -226,7 +228,8 @@ std::optional<double> exhaustiveCost(const Model& model, const Ground& ground) {
     std::map<Slot, std::vector<int>> users;  // -1: a goal
     int goalIndex = 0;
     for (const auto& g : ground.goals) {
-      users[{g.peis, g.peis < 0 ? "goal" + std::to_string(goalIndex) : g.key, g.term}].push_back(-1);
+      users[{g.peis, g.peis < 0 ? "goal" + std::to_string(goalIndex) : g.key, g.term}].push_back(
+          -1);
       ++goalIndex;
     }
     for (int i = 0; i < n; ++i) {
@@ -248,9 +251,9 @@ std::optional<double> exhaustiveCost(const Model& model, const Ground& ground) {
         if (!(set >> p & 1)) continue;
         for (const auto& [key, term] : ground.instances[p].outputs) {
           if (term != slot.term) continue;
-          const double link =
-              slot.peis < 0 ? 0.0
-                            : model.linkCost(model.peis[ground.instances[p].peis], model.peis[slot.peis]);
+          const double link = slot.peis < 0 ? 0.0
+                                            : model.linkCost(model.peis[ground.instances[p].peis],
+                                                             model.peis[slot.peis]);
           options.back().push_back({p, link});
         }
       }
@@ -346,9 +349,9 @@ std::optional<double> milpCost(const Model& model, const Ground& ground) {
     for (int p = 0; p < n; ++p) {
       for (const auto& [key, term] : ground.instances[p].outputs) {
         if (term != slot.term) continue;
-        const double link =
-            slot.peis < 0 ? 0.0
-                          : model.linkCost(model.peis[ground.instances[p].peis], model.peis[slot.peis]);
+        const double link = slot.peis < 0 ? 0.0
+                                          : model.linkCost(model.peis[ground.instances[p].peis],
+                                                           model.peis[slot.peis]);
         const int y = column(link, GLP_BV, 0, 1);
         pick.push_back({y, 1});
         row({{y, 1}, {x[p], -1}}, GLP_UP, 0, 0);  // y <= x_p
@@ -400,7 +403,8 @@ std::string validate(const Model& model, const Goals& goals, const Configuration
     double cost;
   };
   std::vector<Active> active;
-  std::map<std::pair<int, std::string>, std::pair<int, std::string>> producedAt;  // -> (index, term)
+  std::map<std::pair<int, std::string>, std::pair<int, std::string>>
+      producedAt;  // -> (index, term)
   double total = 0;
   for (const auto& a : config.instances) {
     const auto* peis = model.findPeis(a.peis);
@@ -448,8 +452,9 @@ std::string validate(const Model& model, const Goals& goals, const Configuration
     for (const auto& port : f->outputs) {
       const auto term = Term::parse(subst(port.type, v))->toString();
       act.outputs.push_back({subst(port.outputKey(), v), term});
-      auto [it, inserted] = producedAt.emplace(std::make_pair(p, subst(port.outputKey(), v)),
-                                               std::make_pair(static_cast<int>(active.size()), term));
+      auto [it, inserted] =
+          producedAt.emplace(std::make_pair(p, subst(port.outputKey(), v)),
+                             std::make_pair(static_cast<int>(active.size()), term));
       if (!inserted) return "two writers of " + peis->name + "." + it->first.second;
     }
     if (std::abs(act.cost - a.cost) > 1e-9) return a.toString() + ": wrong cost";
@@ -462,10 +467,12 @@ std::string validate(const Model& model, const Goals& goals, const Configuration
     const auto* c = model.findPeis(l.consumerPeis);
     const auto* p = model.findPeis(l.producerPeis);
     if (!c || !p) return "a link names an unknown PEIS: " + l.toString();
-    const int ci = static_cast<int>(c - model.peis.data()), pi = static_cast<int>(p - model.peis.data());
+    const int ci = static_cast<int>(c - model.peis.data()),
+              pi = static_cast<int>(p - model.peis.data());
     auto it = producedAt.find({pi, l.producerKey});
     if (it == producedAt.end()) return "nothing active writes " + l.toString();
-    if (it->second.second != l.information.toString()) return "wrong information on " + l.toString();
+    if (it->second.second != l.information.toString())
+      return "wrong information on " + l.toString();
     if (!linkAt.emplace(std::make_pair(ci, l.consumerKey), it->second).second) {
       return "two links into " + l.consumerPeis + "." + l.consumerKey;
     }
@@ -477,8 +484,10 @@ std::string validate(const Model& model, const Goals& goals, const Configuration
   for (std::size_t i = 0; i < active.size(); ++i) {
     for (const auto& [key, term] : active[i].inputs) {
       auto it = linkAt.find({active[i].peis, key});
-      if (it == linkAt.end()) return config.instances[i].toString() + ": input " + key + " is not linked";
-      if (it->second.second != term) return config.instances[i].toString() + ": " + key + " gets the wrong information";
+      if (it == linkAt.end())
+        return config.instances[i].toString() + ": input " + key + " is not linked";
+      if (it->second.second != term)
+        return config.instances[i].toString() + ": " + key + " gets the wrong information";
       next[i].push_back(it->second.first);
     }
   }
@@ -494,7 +503,8 @@ std::string validate(const Model& model, const Goals& goals, const Configuration
     }
     const auto* c = model.findPeis(g.consumerPeis);
     auto it = linkAt.find({static_cast<int>(c - model.peis.data()), g.consumerKey});
-    if (it == linkAt.end() || it->second.second != term) return "goal " + g.toString() + " is not linked";
+    if (it == linkAt.end() || it->second.second != term)
+      return "goal " + g.toString() + " is not linked";
   }
   for (const auto& r : goals.run) {
     bool running = false;

@@ -36,7 +36,7 @@ struct Ground {
 // Naive grounding of the live, unfailed, unavoided functionalities. Returns
 // nothing when there would be more than `maxInstances`.
 std::optional<Ground> groundNaively(const Model& model, const Goals& goals,
-                                   std::size_t maxInstances = 1000);
+                                    std::size_t maxInstances = 1000);
 
 // The cheapest cost (nothing: no configuration), by trying everything.
 std::optional<double> exhaustiveCost(const Model& model, const Ground& ground);

@@ -1,13 +1,16 @@
 // Descriptors embedded in other YAML files (a model file lists components
 // inline): parse one from a yaml-cpp node so errors keep the outer file's
-// lines. Needs yaml-cpp, which a caller of this header links itself.
+// lines. A caller of this header includes <yaml-cpp/yaml.h> and links
+// yaml-cpp itself (this header only names the type).
 #pragma once
-
-#include <yaml-cpp/yaml.h>
 
 #include <string_view>
 
 #include "peis/descriptor.h"
+
+namespace YAML {
+class Node;
+}
 
 namespace peis {
 

@@ -7,8 +7,8 @@
 #pragma once
 
 #include <cstdint>
-#include <tuple>
 #include <string>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -25,8 +25,8 @@ struct ActiveInstance {
   std::string component;
   std::string functionality;
   std::vector<std::pair<std::string, std::string>> binding;
-  std::string activation;  // the actuator to switch it on; empty: always on
-  double cost = 0;         // its cost as counted in Configuration::cost
+  std::string activation;        // the actuator to switch it on; empty: always on
+  double cost = 0;               // its cost as counted in Configuration::cost
   std::string toString() const;  // `pippi/tracker/track{?robot=vac}`
   bool operator==(const ActiveInstance&) const = default;
   auto operator<=>(const ActiveInstance&) const = default;
@@ -48,8 +48,7 @@ struct Link {
   bool operator==(const Link&) const = default;
   auto operator<=>(const Link& other) const {
     return std::tie(consumerPeis, consumerKey, producerPeis, producerKey) <=>
-           std::tie(other.consumerPeis, other.consumerKey, other.producerPeis,
-                    other.producerKey);
+           std::tie(other.consumerPeis, other.consumerKey, other.producerPeis, other.producerKey);
   }
 };
 

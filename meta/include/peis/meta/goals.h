@@ -18,10 +18,10 @@ namespace peis::meta {
 // the consumer's meta tuple at a producer's output. Without a consumer, the
 // information must only be produced by some active functionality.
 struct InformationGoal {
-  Term information;          // ground
-  std::string consumerPeis;  // PEIS name or id; empty: no consumer
-  std::string consumerKey;   // the meta input key, e.g. "mi-position"
-  std::string origin;        // where it was declared ("goals.yaml:3", "argument 2"), for errors
+  Term information;              // ground
+  std::string consumerPeis;      // PEIS name or id; empty: no consumer
+  std::string consumerKey;       // the meta input key, e.g. "mi-position"
+  std::string origin;            // where it was declared ("goals.yaml:3", "argument 2"), for errors
   std::string toString() const;  // `position(pippi)@pippi.mi-position`
   bool operator==(const InformationGoal&) const = default;
 };
@@ -35,9 +35,9 @@ struct RunGoal {
 };
 
 struct Constraints {
-  std::vector<std::string> avoidPeis;           // never plan on these PEIS
-  std::vector<InstanceSelector> avoid;          // never activate these instances
-  std::vector<InstanceSelector> prefer;         // their own cost is waived when chosen
+  std::vector<std::string> avoidPeis;    // never plan on these PEIS
+  std::vector<InstanceSelector> avoid;   // never activate these instances
+  std::vector<InstanceSelector> prefer;  // their own cost is waived when chosen
   bool operator==(const Constraints&) const = default;
 };
 

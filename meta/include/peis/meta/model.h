@@ -42,9 +42,9 @@ struct LinkCostOverride {
 
 struct PeisInfo {
   int id = 0;
-  std::string name;         // unique in the model; also how goals name the PEIS
-  bool alive = true;        // a dead PEIS is kept for explanations, never planned on
-  bool radio = false;       // a tiny node behind the tinybridge
+  std::string name;    // unique in the model; also how goals name the PEIS
+  bool alive = true;   // a dead PEIS is kept for explanations, never planned on
+  bool radio = false;  // a tiny node behind the tinybridge
   std::vector<Descriptor> components;
   bool operator==(const PeisInfo&) const = default;
 };

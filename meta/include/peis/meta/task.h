@@ -85,7 +85,8 @@ struct TaskPlan {
 
 // Throws Error(InvalidConfig) when the problem does not fit the domain (an
 // unknown predicate arity, a different domain name, an undeclared object).
-TaskPlan planTask(const Domain& domain, const Problem& problem, const TaskPlanOptions& options = {});
+TaskPlan planTask(const Domain& domain, const Problem& problem,
+                  const TaskPlanOptions& options = {});
 
 std::string formatText(const TaskPlan& plan);
 std::string formatJson(const TaskPlan& plan);
