@@ -41,7 +41,7 @@ struct Port {
   // Outputs: the key the output is written to; inputs: the meta tuple the
   // input is read through. May contain the type's variables (`position.?robot`).
   // Empty = the default (see outputKey / inputKey).
-  std::string key;
+  std::string key{};
   bool operator==(const Port&) const = default;
 
   // The key with variables still in it: the output's own key, defaulting to
