@@ -118,7 +118,13 @@ namespace {
 std::uint64_t awaitWrite(const std::function<void(WriteDone)>& start) {
   std::promise<std::pair<std::optional<Error>, std::uint64_t>> result;
   start([&result](const std::optional<Error>& error, std::uint64_t seqno) {
-    result.set_value({error, seqno});
+    // A deep copy: a copied std::runtime_error shares its message with the
+    // original (a reference count inside libstdc++), which the kernel thread
+    // then destroys while this thread reads it; ThreadSanitizer cannot see
+    // that uninstrumented count and reports a race.
+    std::optional<Error> own;
+    if (error) own.emplace(error->code(), std::string(error->what()));
+    result.set_value({std::move(own), seqno});
   });
   auto [error, seqno] = result.get_future().get();
   if (error) throw *error;
