@@ -409,6 +409,14 @@ struct Kernel::Impl {
     afterMutation();  // the membership tuples follow with onTopology, once per change
   }
 
+  // Applies a remote write to an own tuple and schedules the expiry it may
+  // have set (a --ttl from the writer). mu held.
+  void applyWrite(PeisId source, const wire::Write& write) {
+    replication.onWrite(source, write);
+    if (write.tuple.owner != id) return;
+    if (auto t = space.get(id, write.tuple.key); t && t->ts_expire != kNoTime) noteExpiry(*t);
+  }
+
   // Asks the write gate about a remote set of an own tuple (outside the
   // lock); applies or refuses it now or when the gate decides.
   void holdWrite(const WriteGate& gate, PeisId source, wire::Write&& write) {
@@ -421,7 +429,7 @@ struct Kernel::Impl {
         if (refusal) {
           replication.refuseWrite(source, *held, *refusal);
         } else {
-          replication.onWrite(source, *held);
+          applyWrite(source, *held);
         }
         afterMutation();
       });
@@ -485,7 +493,7 @@ struct Kernel::Impl {
                 if (writeGate && body.op == wire::WriteOp::Set && body.tuple.owner == id) {
                   gated.emplace_back(source, std::move(body));
                 } else {
-                  replication.onWrite(source, body);
+                  applyWrite(source, body);
                 }
               }
             },

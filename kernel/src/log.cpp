@@ -1,33 +1,41 @@
-// stderr logger; see log.h.
+// stderr logger and the process-wide log level; see log.h and peis/logging.h.
 #include "log.h"
 
+#include <atomic>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <ctime>
 #include <mutex>
+#include <string>
 
-namespace peis::log {
+namespace peis {
 namespace {
 
-Level configuredLevel() {
+// The level PEIS_LOG names, or Info. A value that names no level is said
+// once on stderr (a typo should not silently change what is logged).
+LogLevel levelFromEnvironment() {
   const char* env = std::getenv("PEIS_LOG");
-  if (!env) return Level::Info;
-  if (std::strcmp(env, "quiet") == 0) return Level::Error;
-  if (std::strcmp(env, "warn") == 0) return Level::Warn;
-  if (std::strcmp(env, "debug") == 0) return Level::Debug;
-  return Level::Info;
+  if (!env || !*env) return LogLevel::Info;
+  if (auto level = parseLogLevel(env)) return *level;
+  std::fprintf(stderr, "peis: PEIS_LOG='%s' is not quiet|error|warn|info|debug; using info\n",
+               env);
+  return LogLevel::Info;
 }
 
-const char* name(Level level) {
+std::atomic<int>& currentLevel() {
+  static std::atomic<int> level{static_cast<int>(levelFromEnvironment())};
+  return level;
+}
+
+const char* name(LogLevel level) {
   switch (level) {
-    case Level::Error:
+    case LogLevel::Error:
       return "error";
-    case Level::Warn:
+    case LogLevel::Warn:
       return "warn";
-    case Level::Info:
+    case LogLevel::Info:
       return "info";
-    case Level::Debug:
+    case LogLevel::Debug:
       return "debug";
   }
   return "?";
@@ -35,10 +43,26 @@ const char* name(Level level) {
 
 }  // namespace
 
-bool enabled(Level level) {
-  static const Level configured = configuredLevel();
-  return level <= configured;
+std::optional<LogLevel> parseLogLevel(std::string_view text) {
+  if (text == "quiet" || text == "error") return LogLevel::Error;
+  if (text == "warn") return LogLevel::Warn;
+  if (text == "info") return LogLevel::Info;
+  if (text == "debug") return LogLevel::Debug;
+  return std::nullopt;
 }
+
+LogLevel logLevel() { return static_cast<LogLevel>(currentLevel().load()); }
+
+void setLogLevel(LogLevel level) { currentLevel().store(static_cast<int>(level)); }
+
+bool logLevelFromEnvironment() {
+  const char* env = std::getenv("PEIS_LOG");
+  return env && parseLogLevel(env).has_value();
+}
+
+namespace log {
+
+bool enabled(Level level) { return static_cast<int>(level) <= currentLevel().load(); }
 
 void line(Level level, PeisId peis, std::string_view message) {
   if (!enabled(level)) return;
@@ -54,4 +78,5 @@ void line(Level level, PeisId peis, std::string_view message) {
                peis, name(level), static_cast<int>(message.size()), message.data());
 }
 
-}  // namespace peis::log
+}  // namespace log
+}  // namespace peis

@@ -1,14 +1,16 @@
 // Minimal logging to stderr: one line per event, prefixed with the time,
-// the level and the PEIS. PEIS_LOG=quiet|warn|info|debug picks how much.
+// the level and the PEIS. The level is process-wide (peis/logging.h):
+// PEIS_LOG=quiet|warn|info|debug, or setLogLevel() in code.
 #pragma once
 
 #include <string_view>
 
+#include "peis/logging.h"
 #include "peis/types.h"
 
 namespace peis::log {
 
-enum class Level { Error = 0, Warn = 1, Info = 2, Debug = 3 };
+using Level = LogLevel;
 
 bool enabled(Level level);
 void line(Level level, PeisId peis, std::string_view message);
