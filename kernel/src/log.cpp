@@ -17,8 +17,7 @@ LogLevel levelFromEnvironment() {
   const char* env = std::getenv("PEIS_LOG");
   if (!env || !*env) return LogLevel::Info;
   if (auto level = parseLogLevel(env)) return *level;
-  std::fprintf(stderr, "peis: PEIS_LOG='%s' is not quiet|error|warn|info|debug; using info\n",
-               env);
+  std::fprintf(stderr, "peis: PEIS_LOG='%s' is not quiet|error|warn|info|debug; using info\n", env);
   return LogLevel::Info;
 }
 

@@ -136,7 +136,7 @@ Options Options::fromEnvironment() {
   Options options;
   for (const auto& setting : kEnvironmentSettings) {
     const char* value = std::getenv(setting.variable);
-    if (!value) continue;
+    if (!value || !*value) continue;  // set but empty: as if unset
     if (std::string_view(setting.flag) == "--peis-connect") {
       for (const auto& target : splitList(value)) {
         applySetting(options, setting.flag, setting.variable, target);
@@ -197,9 +197,9 @@ Options Options::fromArgs(int& argc, char** argv) {
 }
 
 bool Options::isValueFlag(std::string_view flag) {
-  for (const char* known : {"--peis-id", "--peis-name", "--peis-port", "--peis-connect",
-                            "--peis-set-tuple", "--peis-ecology", "--peis-discovery-port",
-                            "--peis-liveness-ms", "--peis-max-data"}) {
+  for (const char* known :
+       {"--peis-id", "--peis-name", "--peis-port", "--peis-connect", "--peis-set-tuple",
+        "--peis-ecology", "--peis-discovery-port", "--peis-liveness-ms", "--peis-max-data"}) {
     if (flag == known) return true;
   }
   return false;

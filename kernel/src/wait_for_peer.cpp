@@ -11,8 +11,8 @@ namespace {
 
 // The ids of the reachable PEIS that `idOrName` names: the id itself, or
 // every PEIS that carries the name.
-std::vector<PeisId> reachableNamed(const std::vector<PeerInfo>& peers,
-                                   std::optional<PeisId> id, std::string_view name) {
+std::vector<PeisId> reachableNamed(const std::vector<PeerInfo>& peers, std::optional<PeisId> id,
+                                   std::string_view name) {
   std::vector<PeisId> ids;
   for (const auto& peer : peers) {
     if (id ? peer.id == *id : peer.name == name) ids.push_back(peer.id);
@@ -46,7 +46,8 @@ std::optional<PeisId> Kernel::waitForPeer(std::string_view idOrName,
     }
     const auto now = std::chrono::steady_clock::now();
     if (now >= deadline) return std::nullopt;
-    std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(pause, deadline - now));
+    std::this_thread::sleep_for(
+        std::min<std::chrono::steady_clock::duration>(pause, deadline - now));
     pause = std::min(pause * 2, std::chrono::milliseconds(20));
   }
 }

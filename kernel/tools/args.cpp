@@ -38,8 +38,9 @@ std::string checkedValue(const OptionSpec& spec, const std::string& value) {
     case OptionKind::Count:
     case OptionKind::Number: {
       const bool digits = !value.empty() && value.size() <= 18 &&
-                          std::all_of(value.begin(), value.end(),
-                                      [](char c) { return std::isdigit(static_cast<unsigned char>(c)); });
+                          std::all_of(value.begin(), value.end(), [](char c) {
+                            return std::isdigit(static_cast<unsigned char>(c));
+                          });
       if (!digits) fail("a whole number");
       if (spec.kind == OptionKind::Count && std::stoll(value) < 1) fail("a number of at least 1");
       return value;

@@ -53,8 +53,7 @@ int run(Kernel& kernel, const Args& args) {
                 << ",\"host\":" << jsonString(value(peer.id, special::kHostname))
                 << ",\"hops\":" << peer.hops
                 << ",\"links\":" << jsonString(value(peer.id, special::kLinks))
-                << ",\"uptime_s\":" << up << ",\"tool\":" << (peer.tool ? "true" : "false")
-                << "}";
+                << ",\"uptime_s\":" << up << ",\"tool\":" << (peer.tool ? "true" : "false") << "}";
     } else {
       std::printf("%-11d %-20s %-16s %4d  %-24s %s%s\n", peer.id, peer.name.c_str(),
                   value(peer.id, special::kHostname).c_str(), peer.hops,

@@ -13,9 +13,9 @@ namespace peis::cli {
 
 struct Command {
   std::string name;
-  std::string synopsis;  // "get OWNER.KEY"
-  std::string summary;   // one line for `peis --help`
-  std::string details;   // a few lines for `peis NAME --help`
+  std::string synopsis;              // "get OWNER.KEY"
+  std::string summary;               // one line for `peis --help`
+  std::string details;               // a few lines for `peis NAME --help`
   std::vector<std::string> options;  // accepted besides --help, --verbose, --peis-*
   bool tool = true;  // a short-lived tool PEIS (left out of `peis ls`); `node` is not
   int (*run)(Kernel& kernel, const Args& args) = nullptr;

@@ -5,9 +5,8 @@ namespace peis::cli {
 
 const std::vector<Command>& builtinCommands() {
   static const std::vector<Command> commands{
-      lsCommand(),    infoCommand(),  getCommand(),   setCommand(),
-      appendCommand(), eraseCommand(), metaCommand(),  watchCommand(),
-      hzCommand(),    tuplesCommand(), nodeCommand(),
+      lsCommand(),   infoCommand(),  getCommand(), setCommand(),    appendCommand(), eraseCommand(),
+      metaCommand(), watchCommand(), hzCommand(),  tuplesCommand(), nodeCommand(),
   };
   return commands;
 }

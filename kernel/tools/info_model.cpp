@@ -112,8 +112,9 @@ PeisInfo collectInfo(PeisId id, const std::vector<Tuple>& tuples, Timestamp now)
       if (suffix == kActuatorStatus && !values.count(name + std::string(kCurrState))) continue;
       auto& actuator = actuators[name];
       actuator.name = name;
-      (suffix == kReqState ? actuator.reqState
-                           : suffix == kCurrState ? actuator.currState : actuator.status) = data;
+      (suffix == kReqState    ? actuator.reqState
+       : suffix == kCurrState ? actuator.currState
+                              : actuator.status) = data;
     }
   }
   for (auto& [name, actuator] : actuators) info.actuators.push_back(std::move(actuator));

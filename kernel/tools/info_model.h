@@ -16,8 +16,8 @@
 namespace peis::cli {
 
 struct InputInfo {
-  std::string name;        // "brightness" for mi-brightness
-  std::string target;      // what the meta tuple holds ("11.brightness"), "" for nowhere
+  std::string name;    // "brightness" for mi-brightness
+  std::string target;  // what the meta tuple holds ("11.brightness"), "" for nowhere
   std::optional<PeisId> targetOwner;
   bool missing = false;  // listed in cause.names while waiting
 };

@@ -76,8 +76,8 @@ PeisId resolvePeis(Kernel& kernel, const std::string& idOrName, Clock::time_poin
   for (const auto& peer : kernel.peers()) {
     if (peer.id != kernel.id()) names.push_back(peer.name);
   }
-  throw Error(ErrorCode::NotFound, "no PEIS is named '" + idOrName + "'" +
-                                       didYouMean(closestNames(idOrName, names)));
+  throw Error(ErrorCode::NotFound,
+              "no PEIS is named '" + idOrName + "'" + didYouMean(closestNames(idOrName, names)));
 }
 
 std::optional<std::vector<std::string>> keysOf(Kernel& kernel, PeisId owner,

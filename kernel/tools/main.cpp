@@ -58,8 +58,8 @@ std::string generalHelp(const std::vector<std::string>& external) {
 }
 
 std::string commandHelp(const Command& command) {
-  return "Usage: peis " + command.synopsis + " [OPTIONS] [--peis-* options]\n\n" +
-         command.details + "\n\n" + optionsHelp(command.options) + "\n" + Options::helpText();
+  return "Usage: peis " + command.synopsis + " [OPTIONS] [--peis-* options]\n\n" + command.details +
+         "\n\n" + optionsHelp(command.options) + "\n" + Options::helpText();
 }
 
 // External commands, without the names of built-in ones.
