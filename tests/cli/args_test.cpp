@@ -57,7 +57,7 @@ TEST_CASE("options before, between and after the arguments", "[unit][cli]") {
   }
 }
 
-TEST_CASE("-- ends the options; '-' and negative numbers are arguments", "[unit][cli]") {
+TEST_CASE("after -- every word is an argument; '-' and negative numbers are too", "[unit][cli]") {
   auto parsed = parse({"set", "7.x", "--", "--json"});
   CHECK(parsed.positional == Strings{"7.x", "--json"});
   CHECK_FALSE(parsed.has("--json"));
