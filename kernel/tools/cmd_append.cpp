@@ -2,29 +2,18 @@
 #include <iostream>
 
 #include "command.h"
-#include "lookup.h"
 #include "output.h"
-#include "value_input.h"
 
 namespace peis::cli {
 namespace {
 
 int run(Kernel& kernel, const Args& args) {
-  expectArguments(args, 2, 2, "OWNER.KEY VALUE");
-  const auto name = parseFullName(args.positional[0]);
-  const auto value = readValue(args.positional[1], args.has("--literal"), std::cin);
   std::optional<std::uint64_t> ifSeqno;
   if (auto n = args.number("--if-seqno")) ifSeqno = static_cast<std::uint64_t>(*n);
-  const auto deadline = deadlineIn(args.seconds("--timeout").value_or(5.0));
-  const auto owner = resolvePeis(kernel, name.owner, deadline);
-  if (!waitUntil([&] { return reachable(kernel, owner); }, deadline)) {
-    std::cerr << "peis: PEIS " << owner << " is not reachable\n";
-    return 1;
-  }
-  const auto tuple = kernel.append(owner, name.key, value.data, ifSeqno);
+  const auto request = readWriteRequest(kernel, args);
+  const auto tuple = kernel.append(request.owner, request.key, request.value.data, ifSeqno);
   if (args.has("--json")) {
-    std::cout << "{\"owner\":" << owner << ",\"key\":" << jsonString(name.key)
-              << ",\"seqno\":" << tuple.seqno << "}\n";
+    std::cout << writeResultJson(request.owner, request.key, tuple.seqno) << "\n";
   }
   return 0;
 }

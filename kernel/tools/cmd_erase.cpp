@@ -11,11 +11,7 @@ int run(Kernel& kernel, const Args& args) {
   expectArguments(args, 1, 1, "OWNER.KEY");
   const auto name = parseFullName(args.positional[0]);
   const auto deadline = deadlineIn(args.seconds("--timeout").value_or(5.0));
-  const auto owner = resolvePeis(kernel, name.owner, deadline);
-  if (!waitUntil([&] { return reachable(kernel, owner); }, deadline)) {
-    std::cerr << "peis: PEIS " << owner << " is not reachable\n";
-    return 1;
-  }
+  const auto owner = reachableOwner(kernel, name.owner, deadline);
   if (owner != kernel.id()) kernel.subscribe(Pattern::exact(owner, special::kAllKeys));
   if (!kernel.erase(owner, name.key)) {
     const auto message = missingKeyMessage(kernel, owner, name.key, deadlineIn(1.0));

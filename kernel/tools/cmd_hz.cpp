@@ -126,12 +126,7 @@ int run(Kernel& kernel, const Args& args) {
   Kernel* k = &kernel;
   kernel.every(std::chrono::milliseconds(static_cast<long long>(interval * 1000)),
                [k, state] { report(*k, *state); });
-  bool quit = true;
-  if (auto timeout = args.seconds("--timeout")) {
-    quit = kernel.runFor(std::chrono::milliseconds(static_cast<long long>(*timeout * 1000)));
-  } else {
-    kernel.run();
-  }
+  const bool quit = runUntilQuitOrTimeout(kernel, args);
   std::lock_guard lock(state->mu);
   state->done = true;
   if (state->withoutUserTime > 0) {

@@ -13,11 +13,7 @@ namespace {
 int run(Kernel& kernel, const Args& args) {
   expectArguments(args, 1, 1, "PEIS (an id or a name)");
   const auto deadline = deadlineIn(args.seconds("--wait").value_or(3.0));
-  const auto id = resolvePeis(kernel, args.positional[0], deadline);
-  if (!waitUntil([&] { return reachable(kernel, id); }, deadline)) {
-    std::cerr << "peis: PEIS " << id << " is not reachable\n";
-    return 1;
-  }
+  const auto id = reachableOwner(kernel, args.positional[0], deadline);
   const auto pattern = Pattern("**", id);
   if (!fetchMatching(kernel, pattern, deadline)) {
     std::cerr << "peis: some tuples of PEIS " << id << " did not arrive in time\n";

@@ -13,12 +13,8 @@ int run(Kernel& kernel, const Args& args) {
   const auto meta = parseFullName(args.positional[0]);
   const auto target = parseFullName(args.positional[1]);
   const auto deadline = deadlineIn(args.seconds("--timeout").value_or(5.0));
-  const auto metaOwner = resolvePeis(kernel, meta.owner, deadline);
   const auto targetOwner = resolvePeis(kernel, target.owner, deadline);
-  if (!waitUntil([&] { return reachable(kernel, metaOwner); }, deadline)) {
-    std::cerr << "peis: PEIS " << metaOwner << " is not reachable\n";
-    return 1;
-  }
+  const auto metaOwner = reachableOwner(kernel, meta.owner, deadline);
   kernel.setMeta(metaOwner, meta.key, targetOwner, target.key);
   if (args.has("--json")) {
     std::cout << "{\"meta\":" << jsonString(fullName(metaOwner, meta.key))

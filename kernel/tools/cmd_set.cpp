@@ -2,37 +2,25 @@
 #include <iostream>
 
 #include "command.h"
-#include "lookup.h"
 #include "output.h"
-#include "value_input.h"
 
 namespace peis::cli {
 namespace {
 
 int run(Kernel& kernel, const Args& args) {
-  expectArguments(args, 2, 2, "OWNER.KEY VALUE");
-  const auto name = parseFullName(args.positional[0]);
-  const auto value = readValue(args.positional[1], args.has("--literal"), std::cin);
+  const auto ttl = args.seconds("--ttl");
+  if (ttl && *ttl <= 0) throw UsageError("--ttl needs a positive number of seconds");
+  const auto request = readWriteRequest(kernel, args);
   WriteOptions options;
-  if (value.binary) {
+  if (request.value.binary) {
     options.encoding = Encoding::Binary;
     options.mimetype = "application/octet-stream";
   }
   if (auto mimetype = args.text("--mimetype")) options.mimetype = *mimetype;
-  if (auto ttl = args.seconds("--ttl")) {
-    if (*ttl <= 0) throw UsageError("--ttl needs a positive number of seconds");
-    options.ttl = std::chrono::microseconds(static_cast<long long>(*ttl * 1e6));
-  }
-  const auto deadline = deadlineIn(args.seconds("--timeout").value_or(5.0));
-  const auto owner = resolvePeis(kernel, name.owner, deadline);
-  if (!waitUntil([&] { return reachable(kernel, owner); }, deadline)) {
-    std::cerr << "peis: PEIS " << owner << " is not reachable\n";
-    return 1;
-  }
-  const auto tuple = kernel.set(owner, name.key, value.data, options);
+  if (ttl) options.ttl = std::chrono::microseconds(static_cast<long long>(*ttl * 1e6));
+  const auto tuple = kernel.set(request.owner, request.key, request.value.data, options);
   if (args.has("--json")) {
-    std::cout << "{\"owner\":" << owner << ",\"key\":" << jsonString(name.key)
-              << ",\"seqno\":" << tuple.seqno << "}\n";
+    std::cout << writeResultJson(request.owner, request.key, tuple.seqno) << "\n";
   }
   return 0;
 }

@@ -63,12 +63,7 @@ int run(Kernel& kernel, const Args& args) {
   kernel.onChange(Pattern(), [k, state](const Tuple& t) { report(*k, *state, t, Event::Set); });
   kernel.onDelete(Pattern(), [k, state](const Tuple& t) { report(*k, *state, t, Event::Delete); });
   for (const auto& pattern : state->patterns) kernel.subscribe(pattern);
-  bool quit = true;
-  if (auto timeout = args.seconds("--timeout")) {
-    quit = kernel.runFor(std::chrono::milliseconds(static_cast<long long>(*timeout * 1000)));
-  } else {
-    kernel.run();
-  }
+  const bool quit = runUntilQuitOrTimeout(kernel, args);
   std::lock_guard lock(state->mu);
   state->done = true;
   return quit || !state->count ? 0 : 1;

@@ -8,6 +8,7 @@
 
 #include "args.h"
 #include "peis/kernel.h"
+#include "value_input.h"
 
 namespace peis::cli {
 
@@ -28,6 +29,19 @@ const Command* findBuiltin(const std::string& name);
 // Checks the number of positional arguments; throws UsageError with the
 // command's synopsis.
 void expectArguments(const Args& args, std::size_t min, std::size_t max, const std::string& what);
+
+// OWNER.KEY VALUE of set and append: the value (as written, -, @FILE; see
+// value_input.h) and its owner, resolved and reachable within --timeout (5 s).
+struct WriteRequest {
+  PeisId owner = 0;
+  std::string key;
+  Value value;
+};
+WriteRequest readWriteRequest(Kernel& kernel, const Args& args);
+
+// Runs the kernel until it quits or --timeout passes (without --timeout:
+// until a quit or SIGINT/SIGTERM). False when --timeout ended it.
+bool runUntilQuitOrTimeout(Kernel& kernel, const Args& args);
 
 Command lsCommand();
 Command nodeCommand();

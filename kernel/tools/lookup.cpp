@@ -80,6 +80,14 @@ PeisId resolvePeis(Kernel& kernel, const std::string& idOrName, Clock::time_poin
               "no PEIS is named '" + idOrName + "'" + didYouMean(closestNames(idOrName, names)));
 }
 
+PeisId reachableOwner(Kernel& kernel, const std::string& idOrName, Clock::time_point deadline) {
+  const auto owner = resolvePeis(kernel, idOrName, deadline);
+  if (!waitUntil([&] { return reachable(kernel, owner); }, deadline)) {
+    throw Error(ErrorCode::Unreachable, "PEIS " + std::to_string(owner) + " is not reachable");
+  }
+  return owner;
+}
+
 std::optional<std::vector<std::string>> keysOf(Kernel& kernel, PeisId owner,
                                                Clock::time_point deadline) {
   std::optional<Tuple> list;

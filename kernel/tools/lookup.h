@@ -37,6 +37,10 @@ std::vector<PeerInfo> listedPeers(const std::vector<PeerInfo>& peers, PeisId sel
 // naming the closest reachable names; InvalidName, AmbiguousName.
 PeisId resolvePeis(Kernel& kernel, const std::string& idOrName, Clock::time_point deadline);
 
+// resolvePeis, then waits until that PEIS is reachable: Error(Unreachable)
+// "PEIS 7 is not reachable" at the deadline. For commands that write.
+PeisId reachableOwner(Kernel& kernel, const std::string& idOrName, Clock::time_point deadline);
+
 // The keys `owner` lists in its kernel.all-keys (subscribing to it), or
 // nothing if that did not arrive by the deadline.
 std::optional<std::vector<std::string>> keysOf(Kernel& kernel, PeisId owner,

@@ -53,6 +53,11 @@ std::string tupleJson(const Tuple& t) {
          ",\"ts_user\":" + micros(t.ts_user) + ",\"ts_expire\":" + micros(t.ts_expire) + "}";
 }
 
+std::string writeResultJson(PeisId owner, std::string_view key, std::uint64_t seqno) {
+  return "{\"owner\":" + std::to_string(owner) + ",\"key\":" + jsonString(key) +
+         ",\"seqno\":" + std::to_string(seqno) + "}";
+}
+
 std::string tupleLine(const Tuple& t) { return t.fullName() + " = " + printable(t); }
 
 std::string clockTime(Timestamp time) {

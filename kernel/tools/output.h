@@ -16,6 +16,8 @@ std::string printable(const Tuple& t);
 // {"owner","key","data","creator","mimetype","encoding","seqno","ts_write",
 // "ts_user","ts_expire"}; times in microseconds since the Unix epoch.
 std::string tupleJson(const Tuple& t);
+// {"owner":ID,"key":"KEY","seqno":N}: a write its owner accepted.
+std::string writeResultJson(PeisId owner, std::string_view key, std::uint64_t seqno);
 // "OWNER.KEY = VALUE".
 std::string tupleLine(const Tuple& t);
 // A time of day in local time, "HH:MM:SS.mmm".

@@ -8,11 +8,13 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include "support/scoped_env.h"
 #include "support/temp_dir.h"
 
 using peis::cli::findSubcommand;
 using peis::cli::listSubcommands;
 using peis::cli::subcommandDirs;
+using peis::test::ScopedEnv;
 using Strings = std::vector<std::string>;
 
 namespace {
@@ -23,26 +25,6 @@ std::string program(const peis::test::TempDir& dir, const std::string& name,
   ::chmod(path.c_str(), executable ? 0755 : 0644);
   return path;
 }
-
-// Sets an environment variable for one scope.
-class ScopedEnv {
- public:
-  ScopedEnv(const char* name, const std::string& value) : name_(name) {
-    if (const char* old = std::getenv(name)) old_ = old;
-    ::setenv(name, value.c_str(), 1);
-  }
-  ~ScopedEnv() {
-    if (old_) {
-      ::setenv(name_, old_->c_str(), 1);
-    } else {
-      ::unsetenv(name_);
-    }
-  }
-
- private:
-  const char* name_;
-  std::optional<std::string> old_;
-};
 
 }  // namespace
 

@@ -9,38 +9,14 @@
 
 #include "peis/error.h"
 #include "peis/options.h"
+#include "support/scoped_env.h"
 
 using Catch::Matchers::Contains;
 using peis::Options;
+using peis::test::ScopedEnv;
 using Strings = std::vector<std::string>;
 
 namespace {
-
-// Sets (or, with nullopt, unsets) environment variables for one scope and
-// puts the old values back after.
-class ScopedEnv {
- public:
-  explicit ScopedEnv(std::vector<std::pair<std::string, std::optional<std::string>>> values) {
-    for (auto& [name, value] : values) {
-      const char* old = std::getenv(name.c_str());
-      saved_.emplace_back(name, old ? std::optional<std::string>(old) : std::nullopt);
-      set(name, value);
-    }
-  }
-  ~ScopedEnv() {
-    for (const auto& [name, value] : saved_) set(name, value);
-  }
-
- private:
-  static void set(const std::string& name, const std::optional<std::string>& value) {
-    if (value) {
-      ::setenv(name.c_str(), value->c_str(), 1);
-    } else {
-      ::unsetenv(name.c_str());
-    }
-  }
-  std::vector<std::pair<std::string, std::optional<std::string>>> saved_;
-};
 
 Options parse(Strings args) {
   args.insert(args.begin(), "prog");
