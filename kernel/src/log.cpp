@@ -1,4 +1,4 @@
-// stderr logger and the process-wide log level; see log.h and peis/logging.h.
+// stderr logger and the process-wide log level; see peis/log.h.
 #include "log.h"
 
 #include <atomic>
@@ -6,35 +6,35 @@
 #include <cstdlib>
 #include <ctime>
 #include <mutex>
-#include <string>
 
-namespace peis {
+namespace peis::log {
 namespace {
 
 // The level PEIS_LOG names, or Info. A value that names no level is said
 // once on stderr (a typo should not silently change what is logged).
-LogLevel levelFromEnvironment() {
+Level levelFromVariable() {
   const char* env = std::getenv("PEIS_LOG");
-  if (!env || !*env) return LogLevel::Info;
-  if (auto level = parseLogLevel(env)) return *level;
-  std::fprintf(stderr, "peis: PEIS_LOG='%s' is not quiet|error|warn|info|debug; using info\n", env);
-  return LogLevel::Info;
+  if (!env || !*env) return Level::Info;
+  if (auto level = parseLevel(env)) return *level;
+  std::fprintf(stderr, "peis: PEIS_LOG='%s' is not quiet|error|warn|info|debug; using info\n",
+               env);
+  return Level::Info;
 }
 
-std::atomic<int>& currentLevel() {
-  static std::atomic<int> level{static_cast<int>(levelFromEnvironment())};
+std::atomic<int>& current() {
+  static std::atomic<int> level{static_cast<int>(levelFromVariable())};
   return level;
 }
 
-const char* name(LogLevel level) {
+const char* name(Level level) {
   switch (level) {
-    case LogLevel::Error:
+    case Level::Error:
       return "error";
-    case LogLevel::Warn:
+    case Level::Warn:
       return "warn";
-    case LogLevel::Info:
+    case Level::Info:
       return "info";
-    case LogLevel::Debug:
+    case Level::Debug:
       return "debug";
   }
   return "?";
@@ -42,26 +42,24 @@ const char* name(LogLevel level) {
 
 }  // namespace
 
-std::optional<LogLevel> parseLogLevel(std::string_view text) {
-  if (text == "quiet" || text == "error") return LogLevel::Error;
-  if (text == "warn") return LogLevel::Warn;
-  if (text == "info") return LogLevel::Info;
-  if (text == "debug") return LogLevel::Debug;
+std::optional<Level> parseLevel(std::string_view text) {
+  if (text == "quiet" || text == "error") return Level::Error;
+  if (text == "warn") return Level::Warn;
+  if (text == "info") return Level::Info;
+  if (text == "debug") return Level::Debug;
   return std::nullopt;
 }
 
-LogLevel logLevel() { return static_cast<LogLevel>(currentLevel().load()); }
+Level level() { return static_cast<Level>(current().load()); }
 
-void setLogLevel(LogLevel level) { currentLevel().store(static_cast<int>(level)); }
+void setLevel(Level level) { current().store(static_cast<int>(level)); }
 
-bool logLevelFromEnvironment() {
+bool levelFromEnvironment() {
   const char* env = std::getenv("PEIS_LOG");
-  return env && parseLogLevel(env).has_value();
+  return env && parseLevel(env).has_value();
 }
 
-namespace log {
-
-bool enabled(Level level) { return static_cast<int>(level) <= currentLevel().load(); }
+bool enabled(Level level) { return static_cast<int>(level) <= current().load(); }
 
 void line(Level level, PeisId peis, std::string_view message) {
   if (!enabled(level)) return;
@@ -77,5 +75,4 @@ void line(Level level, PeisId peis, std::string_view message) {
                peis, name(level), static_cast<int>(message.size()), message.data());
 }
 
-}  // namespace log
-}  // namespace peis
+}  // namespace peis::log

@@ -7,21 +7,21 @@
 
 #include "lookup.h"
 #include "output.h"
+#include "peis/conventions.h"
 #include "peis/key.h"
 
 namespace peis::cli {
 namespace {
 
-// The component conventions' key names (component/include/peis/conventions.h).
-constexpr std::string_view kStatus = "status";
-constexpr std::string_view kCauseNames = "cause.names";
-constexpr std::string_view kComponentName = "component.name";
-constexpr std::string_view kComponentOutputs = "component.outputs";
-constexpr std::string_view kFunctionalities = "functionalities";
-constexpr std::string_view kMetaInputPrefix = "mi-";
-constexpr std::string_view kReqState = ".reqState";
-constexpr std::string_view kCurrState = ".currState";
-constexpr std::string_view kActuatorStatus = ".status";
+using conventions::kActuatorStatus;
+using conventions::kCauseNames;
+using conventions::kComponentName;
+using conventions::kComponentOutputs;
+using conventions::kCurrState;
+using conventions::kFunctionalities;
+using conventions::kMetaInputPrefix;
+using conventions::kReqState;
+using conventions::kStatus;
 
 std::vector<PeisId> idsOf(const std::string& text) {
   std::vector<PeisId> ids;
@@ -101,7 +101,7 @@ PeisInfo collectInfo(PeisId id, const std::vector<Tuple>& tuples, Timestamp now)
       if (const auto dot = data.find('.'); dot != std::string::npos) {
         input.targetOwner = parsePeisId(std::string_view(data).substr(0, dot));
       }
-      input.missing = info.status == "waiting" &&
+      input.missing = info.status == conventions::kWaiting &&
                       std::find(missing.begin(), missing.end(), input.name) != missing.end();
       info.inputs.push_back(std::move(input));
     }

@@ -1,9 +1,8 @@
 // What `peis info` says about one PEIS, read from its tuples: the kernel's
 // own (name, host, links, subscribers) and those of the component
-// conventions (docs/components.md: status, cause.names, mi-<input>,
-// component.outputs, <act>.reqState/currState/status, functionalities).
-// The kernel's tool cannot include the component library's conventions.h
-// (the layering), so the few key names it reads are spelled here. Pure.
+// conventions (peis/conventions.h, docs/components.md: status, cause.names,
+// mi-<input>, component.outputs, <act>.reqState/currState/status,
+// functionalities). Pure.
 #pragma once
 
 #include <functional>

@@ -115,9 +115,9 @@ int runBuiltin(const Command& command, int argc, char** argv) {
   }
   // A tool prints its result, not the kernel's log, unless asked.
   if (args.has("--verbose")) {
-    setLogLevel(LogLevel::Info);
-  } else if (command.tool && !logLevelFromEnvironment()) {
-    setLogLevel(LogLevel::Warn);
+    log::setLevel(log::Level::Info);
+  } else if (command.tool && !log::levelFromEnvironment()) {
+    log::setLevel(log::Level::Warn);
   }
   options.tool = command.tool;
   if (options.name.empty()) options.name = command.tool ? "peis-" + command.name : command.name;
