@@ -116,9 +116,9 @@ TEST_CASE("a peis command prints its result only, unless --verbose or PEIS_LOG",
 
 TEST_CASE("a misspelt key, PEIS name or command gets the closest names", "[integration]") {
   const auto ecology = uniqueEcology("cli-typo");
-  peis::Kernel owner(kernelOptions(ecology, "sensor"));
-  owner.set("position", "1,2");
-  const auto id = std::to_string(owner.id());
+  auto node = peis::test::startNode(
+      ecology, {"--peis-name", "sensor", "--peis-set-tuple", "position=1,2"});
+  const auto id = std::to_string(peis::test::awaitNode(*node).id);
 
   auto key = runCli(ecology, {"get", "sensor.postion", "--wait", "3"}, 60s);
   INFO(describe(key));
@@ -136,7 +136,9 @@ TEST_CASE("a misspelt key, PEIS name or command gets the closest names", "[integ
   INFO(describe(erase));
   CHECK(erase.status == 1);
   CHECK_THAT(erase.err, Contains("did you mean 'position'?"));
-  CHECK(valueOf(owner, owner.id(), "position") == "1,2");
+  auto kept = runCli(ecology, {"get", "sensor.position", "--wait", "15"}, 60s);
+  INFO(describe(kept));
+  CHECK(kept.out == "1,2\n");
 
   auto command = runPeis({"gte", "sensor.position"});
   INFO(describe(command));
