@@ -16,8 +16,7 @@ Level levelFromVariable() {
   const char* env = std::getenv("PEIS_LOG");
   if (!env || !*env) return Level::Info;
   if (auto level = parseLevel(env)) return *level;
-  std::fprintf(stderr, "peis: PEIS_LOG='%s' is not quiet|error|warn|info|debug; using info\n",
-               env);
+  std::fprintf(stderr, "peis: PEIS_LOG='%s' is not quiet|error|warn|info|debug; using info\n", env);
   return Level::Info;
 }
 

@@ -116,8 +116,8 @@ TEST_CASE("a peis command prints its result only, unless --verbose or PEIS_LOG",
 
 TEST_CASE("a misspelt key, PEIS name or command gets the closest names", "[integration]") {
   const auto ecology = uniqueEcology("cli-typo");
-  auto node = peis::test::startNode(
-      ecology, {"--peis-name", "sensor", "--peis-set-tuple", "position=1,2"});
+  auto node =
+      peis::test::startNode(ecology, {"--peis-name", "sensor", "--peis-set-tuple", "position=1,2"});
   const auto id = std::to_string(peis::test::awaitNode(*node).id);
 
   auto key = runCli(ecology, {"get", "sensor.postion", "--wait", "3"}, 60s);
