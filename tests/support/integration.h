@@ -41,14 +41,6 @@ inline std::optional<NodeInfo> parseNodeLine(const std::string& text) {
                   static_cast<std::uint16_t>(std::stoul(match[2]))};
 }
 
-inline std::vector<std::string> cliArgs(const std::string& ecology, std::vector<std::string> args) {
-  std::vector<std::string> argv{peis::test::peisCliPath()};
-  argv.insert(argv.end(), args.begin(), args.end());
-  argv.push_back("--peis-ecology");
-  argv.push_back(ecology);
-  return argv;
-}
-
 // Starts `peis node` in `ecology` with extra flags.
 inline std::unique_ptr<Process> startNode(const std::string& ecology,
                                           std::vector<std::string> flags = {}) {
