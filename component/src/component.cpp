@@ -45,6 +45,8 @@ struct Component::State {
   mutable std::mutex mu;
   std::map<std::string, Input> inputs;
   std::map<std::string, Apply> actuators;
+  std::map<std::string, WriteOptions> outputs;
+  StatusCallback onStatus;
   std::vector<CallbackHandle> callbacks;
   std::optional<TimerHandle> freshnessTimer;
   bool started = false;
@@ -79,8 +81,10 @@ struct Component::State {
     return causes.empty() ? ComponentStatus::Running : ComponentStatus::Waiting;
   }
 
-  // Writes status and cause.names when they changed. mu held.
-  void publish() {
+  // Writes status and cause.names when they changed, and tells the status
+  // callback (queued on the kernel thread, so it runs without mu and in
+  // order). mu held.
+  void publish(const std::shared_ptr<State>& self) {
     std::string causes;
     const auto status = compute(causes);
     if (published == status && publishedCauses == causes) return;
@@ -88,6 +92,19 @@ struct Component::State {
     kernel->set(conventions::kStatus, toString(status));
     published = status;
     publishedCauses = causes;
+    if (onStatus) {
+      std::weak_ptr<State> weak = self;
+      kernel->post([weak, status, causes] {
+        auto state = weak.lock();
+        if (!state) return;
+        StatusCallback fn;
+        {
+          std::lock_guard lock(state->mu);
+          fn = state->onStatus;
+        }
+        if (fn) fn(status, causes);
+      });
+    }
   }
 };
 
@@ -98,7 +115,7 @@ Component::Component(Kernel& kernel, std::string name)
   state_->name = std::move(name);
   kernel_.set(conventions::kComponentName, state_->name);
   std::lock_guard lock(state_->mu);
-  state_->publish();
+  state_->publish(state_);
 }
 
 Component::Component(Kernel& kernel, std::string name, const Descriptor& descriptor)
@@ -113,6 +130,10 @@ Component::~Component() {
     std::lock_guard lock(state_->mu);
     callbacks.swap(state_->callbacks);
     timer = state_->freshnessTimer;
+  }
+  {
+    std::lock_guard lock(state_->mu);
+    state_->onStatus = nullptr;  // status changes queued already are not reported
   }
   for (auto handle : callbacks) kernel_.removeCallback(handle);
   if (timer) kernel_.cancelTimer(*timer);
@@ -150,7 +171,7 @@ void Component::input(const std::string& name, std::chrono::milliseconds freshne
     if (freshness.count() > 0 && !state->freshnessTimer) {
       state->freshnessTimer = kernel_.every(kFreshnessCheck, [state] {
         std::lock_guard lock(state->mu);
-        state->publish();
+        state->publish(state);
       });
     }
   }
@@ -164,7 +185,7 @@ void Component::input(const std::string& name, std::chrono::milliseconds freshne
         if (input.value &&
             (!target || target->owner != input.value->owner || target->key != input.value->key)) {
           input.value.reset();
-          state->publish();
+          state->publish(state);
         }
       });
   auto values = kernel_.subscribeIndirect(kernel_.id(), metaKey, [state, name](const Tuple& t) {
@@ -175,14 +196,14 @@ void Component::input(const std::string& name, std::chrono::milliseconds freshne
       input.value = t;
       input.arrival = std::chrono::steady_clock::now();
       onValue = input.onValue;
-      state->publish();
+      state->publish(state);
     }
     if (onValue) onValue(t);
   });
   std::lock_guard lock(state->mu);
   state->callbacks.push_back(repointed);
   state->callbacks.push_back(values);
-  state->publish();
+  state->publish(state);
 }
 
 std::optional<Tuple> Component::inputValue(const std::string& name) const {
@@ -198,6 +219,49 @@ bool Component::inputFresh(const std::string& name) const {
   std::lock_guard lock(state_->mu);
   auto it = state_->inputs.find(name);
   return it != state_->inputs.end() && state_->fresh(it->second);
+}
+
+void Component::output(const std::string& name, WriteOptions options) {
+  validateKey(name);
+  if (options.mimetype.size() > kMaxMimetypeBytes) {
+    throw Error(ErrorCode::InvalidArgument, "output '" + name + "': mimetype too long");
+  }
+  std::string list;
+  {
+    std::lock_guard lock(state_->mu);
+    if (state_->outputs.count(name)) {
+      throw Error(ErrorCode::InvalidArgument, "output '" + name + "' is declared twice");
+    }
+    state_->outputs[name] = std::move(options);
+    for (const auto& [each, unused] : state_->outputs) list += (list.empty() ? "" : " ") + each;
+  }
+  kernel_.set(conventions::kComponentOutputs, std::move(list));
+}
+
+Tuple Component::write(const std::string& output, std::string data) {
+  WriteOptions options;
+  {
+    std::lock_guard lock(state_->mu);
+    auto it = state_->outputs.find(output);
+    if (it == state_->outputs.end()) {
+      throw Error(ErrorCode::NotFound,
+                  "component " + state_->name + " has no output '" + output + "'");
+    }
+    options = it->second;
+  }
+  return kernel_.set(output, std::move(data), options);
+}
+
+std::vector<std::string> Component::outputs() const {
+  std::lock_guard lock(state_->mu);
+  std::vector<std::string> names;
+  for (const auto& [name, unused] : state_->outputs) names.push_back(name);
+  return names;
+}
+
+void Component::onStatusChange(StatusCallback fn) {
+  std::lock_guard lock(state_->mu);
+  state_->onStatus = std::move(fn);
 }
 
 void Component::actuator(const std::string& name, Apply apply, std::string initialState) {
@@ -249,13 +313,13 @@ void Component::start() {
   std::lock_guard lock(state_->mu);
   state_->started = true;
   state_->errorCause.reset();
-  state_->publish();
+  state_->publish(state_);
 }
 
 void Component::fail(const std::string& cause) {
   std::lock_guard lock(state_->mu);
   state_->errorCause = cause;
-  state_->publish();
+  state_->publish(state_);
 }
 
 ComponentStatus Component::status() const {

@@ -137,6 +137,9 @@ struct Kernel::Impl {
   void onTopology() EXCLUDES(mu);
   PeisId repickId() EXCLUDES(mu);
   void holdWrite(const WriteGate& gate, PeisId source, wire::Write&& write);
+  // Applies a remote write to an own tuple and schedules the expiry it may
+  // have set (a --ttl from the writer).
+  void applyWrite(PeisId source, const wire::Write& write) REQUIRES(mu);
   // Checks a write to another owner on the calling thread, then sends it
   // from the kernel thread; `done` completes it there.
   void remoteWrite(wire::WriteOp op, PeisId owner, std::string_view key, std::string data,

@@ -121,6 +121,12 @@ void Kernel::Impl::onPeerDown(PeisId peer) {
       peer, Error(ErrorCode::Unreachable, "PEIS " + std::to_string(peer) + " went away"));
 }
 
+void Kernel::Impl::applyWrite(PeisId source, const wire::Write& write) {
+  replication.onWrite(source, write);
+  if (write.tuple.owner != id) return;
+  if (auto t = space.get(id, write.tuple.key); t && t->ts_expire != kNoTime) noteExpiry(*t);
+}
+
 // Asks the write gate about a remote set of an own tuple (outside the
 // lock); applies or refuses it now or when the gate decides.
 void Kernel::Impl::holdWrite(const WriteGate& gate, PeisId source, wire::Write&& write) {
@@ -136,7 +142,7 @@ void Kernel::Impl::holdWrite(const WriteGate& gate, PeisId source, wire::Write&&
       if (refusal) {
         replication.refuseWrite(source, *held, *refusal);
       } else {
-        replication.onWrite(source, *held);
+        applyWrite(source, *held);
       }
       afterMutation();
     });
@@ -198,7 +204,7 @@ void Kernel::Impl::onMessages(std::vector<wire::RoutedMessage>&& messages) {
               if (writeGate && body.op == wire::WriteOp::Set && body.tuple.owner == id) {
                 gated.emplace_back(source, std::move(body));
               } else {
-                replication.onWrite(source, body);
+                applyWrite(source, body);
               }
             }
           },

@@ -1,22 +1,28 @@
-// stderr logger; see peis/log.h.
+// stderr logger and the process-wide log level; see peis/log.h.
 #include "log.h"
 
+#include <atomic>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <ctime>
 #include <mutex>
 
 namespace peis::log {
 namespace {
 
-Level configuredLevel() {
+// The level PEIS_LOG names, or Info. A value that names no level is said
+// once on stderr (a typo should not silently change what is logged).
+Level levelFromVariable() {
   const char* env = std::getenv("PEIS_LOG");
-  if (!env) return Level::Info;
-  if (std::strcmp(env, "quiet") == 0) return Level::Error;
-  if (std::strcmp(env, "warn") == 0) return Level::Warn;
-  if (std::strcmp(env, "debug") == 0) return Level::Debug;
+  if (!env || !*env) return Level::Info;
+  if (auto level = parseLevel(env)) return *level;
+  std::fprintf(stderr, "peis: PEIS_LOG='%s' is not quiet|error|warn|info|debug; using info\n", env);
   return Level::Info;
+}
+
+std::atomic<int>& current() {
+  static std::atomic<int> level{static_cast<int>(levelFromVariable())};
+  return level;
 }
 
 const char* name(Level level) {
@@ -35,10 +41,24 @@ const char* name(Level level) {
 
 }  // namespace
 
-bool enabled(Level level) {
-  static const Level configured = configuredLevel();
-  return level <= configured;
+std::optional<Level> parseLevel(std::string_view text) {
+  if (text == "quiet" || text == "error") return Level::Error;
+  if (text == "warn") return Level::Warn;
+  if (text == "info") return Level::Info;
+  if (text == "debug") return Level::Debug;
+  return std::nullopt;
 }
+
+Level level() { return static_cast<Level>(current().load()); }
+
+void setLevel(Level level) { current().store(static_cast<int>(level)); }
+
+bool levelFromEnvironment() {
+  const char* env = std::getenv("PEIS_LOG");
+  return env && parseLevel(env).has_value();
+}
+
+bool enabled(Level level) { return static_cast<int>(level) <= current().load(); }
 
 void line(Level level, PeisId peis, std::string_view message) {
   if (!enabled(level)) return;

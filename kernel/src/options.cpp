@@ -2,6 +2,7 @@
 #include "peis/options.h"
 
 #include <charconv>
+#include <cstdlib>
 #include <cstring>
 
 #include "peis/error.h"
@@ -24,14 +25,13 @@ std::uint64_t parseUnsigned(const std::string& flag, std::string_view text, std:
   return value;
 }
 
-void checkEcology(std::string_view name) {
+void checkEcology(const std::string& source, std::string_view name) {
   if (name.empty() || name.size() > kMaxNameBytes) {
-    bad("--peis-ecology",
-        "the ecology name must be 1.." + std::to_string(kMaxNameBytes) + " bytes");
+    bad(source, "the ecology name must be 1.." + std::to_string(kMaxNameBytes) + " bytes");
   }
   for (char c : name) {
     if (static_cast<unsigned char>(c) <= 0x20 || static_cast<unsigned char>(c) >= 0x7f) {
-      bad("--peis-ecology", "the ecology name may only hold printable characters");
+      bad(source, "the ecology name may only hold printable characters");
     }
   }
 }
@@ -51,8 +51,106 @@ std::pair<std::string, std::uint16_t> parseHostPort(std::string_view text) {
   return {std::string(host), static_cast<std::uint16_t>(port)};
 }
 
-Options Options::fromArgs(int& argc, char** argv) {
+namespace {
+
+// The settings that come from the environment as well as from a flag: the
+// ones an ecology shares (as ROS_DOMAIN_ID is shared), never the ones that
+// single out one process (id, name, port, set-tuple), which every program
+// started from a shell would otherwise inherit and clash on.
+struct EnvironmentSetting {
+  const char* variable;
+  const char* flag;
+};
+constexpr EnvironmentSetting kEnvironmentSettings[] = {
+    {"PEIS_ECOLOGY", "--peis-ecology"},
+    {"PEIS_CONNECT", "--peis-connect"},
+    {"PEIS_DISCOVERY_PORT", "--peis-discovery-port"},
+    {"PEIS_LIVENESS_MS", "--peis-liveness-ms"},
+    {"PEIS_MAX_DATA", "--peis-max-data"},
+};
+
+// Applies one setting of a value-taking flag; `source` names where the value
+// came from (the flag, or the environment variable) for the error message.
+// False when `flag` is not a value-taking flag.
+bool applySetting(Options& options, const std::string& flag, const std::string& source,
+                  const std::string& value) {
+  if (flag == "--peis-id") {
+    const auto id = parsePeisId(value);
+    if (!id) bad(source, "'" + value + "' is not an id in 1.." + std::to_string(kMaxPeisId));
+    options.id = *id;
+  } else if (flag == "--peis-name") {
+    options.name = value;
+    if (auto problem = nameProblem(options.name)) bad(source, *problem);
+  } else if (flag == "--peis-port") {
+    options.port = static_cast<std::uint16_t>(parseUnsigned(source, value, 65535));
+  } else if (flag == "--peis-connect") {
+    options.connect.push_back(value);
+    try {
+      parseHostPort(value);
+    } catch (const Error&) {
+      if (source == flag) throw;
+      bad(source, "'" + value + "' is not HOST:PORT");
+    }
+  } else if (flag == "--peis-set-tuple") {
+    const auto eq = value.find('=');
+    if (eq == std::string::npos) bad(source, "'" + value + "' is not KEY=VALUE");
+    options.setTuples.emplace_back(value.substr(0, eq), value.substr(eq + 1));
+    if (auto problem = keyProblem(options.setTuples.back().first)) bad(source, *problem);
+  } else if (flag == "--peis-ecology") {
+    options.ecology = value;
+    checkEcology(source, options.ecology);
+  } else if (flag == "--peis-discovery-port") {
+    options.discoveryPort = static_cast<std::uint16_t>(parseUnsigned(source, value, 65535));
+    if (options.discoveryPort == 0) bad(source, "port 0 is not a port");
+  } else if (flag == "--peis-liveness-ms") {
+    const auto ms = parseUnsigned(source, value, 3600000);
+    if (ms < 100) bad(source, "at least 100 ms");
+    options.liveness = std::chrono::milliseconds(ms);
+  } else if (flag == "--peis-max-data") {
+    options.maxDataBytes = parseUnsigned(source, value, kMaxDataBytes);
+  } else {
+    return false;
+  }
+  return true;
+}
+
+// "a:1, b:2 c:3" -> {"a:1", "b:2", "c:3"}: commas or white space between.
+std::vector<std::string> splitList(std::string_view text) {
+  std::vector<std::string> items;
+  std::string item;
+  for (char c : text) {
+    if (c == ',' || c == ' ' || c == '\t' || c == '\n') {
+      if (!item.empty()) items.push_back(std::move(item));
+      item.clear();
+    } else {
+      item += c;
+    }
+  }
+  if (!item.empty()) items.push_back(std::move(item));
+  return items;
+}
+
+}  // namespace
+
+Options Options::fromEnvironment() {
   Options options;
+  for (const auto& setting : kEnvironmentSettings) {
+    const char* value = std::getenv(setting.variable);
+    if (!value || !*value) continue;  // set but empty: as if unset
+    if (std::string_view(setting.flag) == "--peis-connect") {
+      for (const auto& target : splitList(value)) {
+        applySetting(options, setting.flag, setting.variable, target);
+      }
+    } else {
+      applySetting(options, setting.flag, setting.variable, value);
+    }
+  }
+  return options;
+}
+
+Options Options::fromArgs(int& argc, char** argv) {
+  Options options = fromEnvironment();
+  bool connectFromFlags = false;  // the first --peis-connect replaces PEIS_CONNECT's list
   if (argc > 0 && argv[0]) {
     std::string program = argv[0];
     const auto slash = program.rfind('/');
@@ -77,52 +175,34 @@ Options Options::fromArgs(int& argc, char** argv) {
       value = arg.substr(eq + 1);
       hasValue = true;
     }
-    auto needValue = [&]() -> std::string {
-      if (hasValue) return value;
-      if (i + 1 >= argc) bad(flag, "needs a value");
-      return argv[++i];
-    };
-    if (flag == "--peis-id") {
-      const auto text = needValue();
-      const auto id = parsePeisId(text);
-      if (!id) bad(flag, "'" + text + "' is not an id in 1.." + std::to_string(kMaxPeisId));
-      options.id = *id;
-    } else if (flag == "--peis-name") {
-      options.name = needValue();
-      if (auto problem = nameProblem(options.name)) bad(flag, *problem);
-    } else if (flag == "--peis-port") {
-      options.port = static_cast<std::uint16_t>(parseUnsigned(flag, needValue(), 65535));
-    } else if (flag == "--peis-connect") {
-      options.connect.push_back(needValue());
-      parseHostPort(options.connect.back());
-    } else if (flag == "--peis-set-tuple") {
-      const auto text = needValue();
-      const auto eq = text.find('=');
-      if (eq == std::string::npos) bad(flag, "'" + text + "' is not KEY=VALUE");
-      options.setTuples.emplace_back(text.substr(0, eq), text.substr(eq + 1));
-      if (auto problem = keyProblem(options.setTuples.back().first)) bad(flag, *problem);
-    } else if (flag == "--peis-ecology") {
-      options.ecology = needValue();
-      checkEcology(options.ecology);
-    } else if (flag == "--peis-no-discovery") {
+    if (flag == "--peis-no-discovery") {
       if (hasValue) bad(flag, "takes no value");
       options.discovery = false;
-    } else if (flag == "--peis-discovery-port") {
-      options.discoveryPort = static_cast<std::uint16_t>(parseUnsigned(flag, needValue(), 65535));
-      if (options.discoveryPort == 0) bad(flag, "port 0 is not a port");
-    } else if (flag == "--peis-liveness-ms") {
-      const auto ms = parseUnsigned(flag, needValue(), 3600000);
-      if (ms < 100) bad(flag, "at least 100 ms");
-      options.liveness = std::chrono::milliseconds(ms);
-    } else if (flag == "--peis-max-data") {
-      options.maxDataBytes = parseUnsigned(flag, needValue(), kMaxDataBytes);
-    } else {
-      bad(flag, "unknown PEIS option");
+      continue;
     }
+    if (!isValueFlag(flag)) bad(flag, "unknown PEIS option");
+    if (!hasValue) {
+      if (i + 1 >= argc) bad(flag, "needs a value");
+      value = argv[++i];
+    }
+    if (flag == "--peis-connect" && !connectFromFlags) {
+      options.connect.clear();
+      connectFromFlags = true;
+    }
+    applySetting(options, flag, flag, value);
   }
   argc = out;
   argv[out] = nullptr;
   return options;
+}
+
+bool Options::isValueFlag(std::string_view flag) {
+  for (const char* known :
+       {"--peis-id", "--peis-name", "--peis-port", "--peis-connect", "--peis-set-tuple",
+        "--peis-ecology", "--peis-discovery-port", "--peis-liveness-ms", "--peis-max-data"}) {
+    if (flag == known) return true;
+  }
+  return false;
 }
 
 void Options::validate() const {
@@ -134,7 +214,7 @@ void Options::validate() const {
   for (const auto& [key, value] : setTuples) {
     if (auto problem = keyProblem(key)) bad("--peis-set-tuple", *problem);
   }
-  checkEcology(ecology);
+  checkEcology("--peis-ecology", ecology);
   if (maxDataBytes > kMaxDataBytes) bad("--peis-max-data", "at most 2^31-1 bytes");
   if (liveness.count() < 100 || liveness.count() > 3600000) {
     bad("--peis-liveness-ms", "100..3600000 ms");
@@ -162,7 +242,15 @@ std::string Options::helpText() {
          "  --peis-discovery-port P  UDP port of the discovery beacons (default 7700)\n"
          "  --peis-liveness-ms MS    a link silent this long is dead (default 2000)\n"
          "  --peis-max-data BYTES    largest tuple data accepted (default 64 MiB)\n"
-         "  --help, -h               show this help\n";
+         "  --help, -h               show this help\n"
+         "Environment (a flag wins over its variable):\n"
+         "  PEIS_ECOLOGY NAME        as --peis-ecology\n"
+         "  PEIS_CONNECT LIST        as --peis-connect, HOST:PORT separated by , or space\n"
+         "  PEIS_DISCOVERY_PORT P    as --peis-discovery-port\n"
+         "  PEIS_LIVENESS_MS MS      as --peis-liveness-ms\n"
+         "  PEIS_MAX_DATA BYTES      as --peis-max-data\n"
+         "  PEIS_DISCOVERY_SCOPE     off | loopback | lan (default lan)\n"
+         "  PEIS_LOG LEVEL           quiet | warn | info | debug (default info)\n";
 }
 
 }  // namespace peis

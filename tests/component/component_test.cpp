@@ -489,3 +489,114 @@ TEST_CASE("Destroying a Component removes its callbacks", "[unit][component]") {
   CHECK(inputValues == 1);
   CHECK(dataOf(k, "light.currState") == "on");
 }
+
+TEST_CASE("Component onStatusChange: an actuator goes safe when its input goes stale",
+          "[unit][component]") {
+  std::atomic<bool> producing{true};
+  std::atomic<bool> onKernelThread{true};
+  std::mutex mu;
+  std::vector<std::string> changes;  // "status:causes", in order
+  peis::Kernel k(testOptions());
+  peis::Component motor(k, "motor");
+  motor.input("command", 100ms);
+  motor.actuator(
+      "drive", [](const std::string& wanted) { return wanted; }, "stopped");
+  motor.onStatusChange([&](ComponentStatus status, const std::string& causes) {
+    onKernelThread = onKernelThread && k.onKernelThread();
+    {
+      std::lock_guard lock(mu);
+      changes.push_back(std::string(peis::toString(status)) + ":" + causes);
+    }
+    // The safe state: stop the drive as soon as the command is stale.
+    if (status != ComponentStatus::Running) k.set("drive.reqState", "stopped");
+  });
+  auto saw = [&](const std::string& change) {
+    return waitFor([&] {
+      std::lock_guard lock(mu);
+      return std::find(changes.begin(), changes.end(), change) != changes.end();
+    });
+  };
+  motor.start();
+  REQUIRE(saw("waiting:command"));
+
+  const auto producer = k.every(10ms, [&] {
+    if (producing) k.set("planner.command", "forward");
+  });
+  k.setMeta("mi-command", k.id(), "planner.command");
+  REQUIRE(saw("running:"));
+  k.set("drive.reqState", "forward");
+  REQUIRE(waitForData(k, "drive.currState", "forward"));
+
+  producing = false;  // the command goes stale: the callback stops the drive
+  REQUIRE(saw("waiting:command"));
+  CHECK(waitForData(k, "drive.currState", "stopped"));
+  CHECK(onKernelThread);
+  {
+    std::lock_guard lock(mu);
+    CHECK(changes.front() == "waiting:command");  // initializing came before the callback
+  }
+  k.cancelTimer(producer);
+  REQUIRE(fence(k));
+}
+
+TEST_CASE("Component onStatusChange reports fail() and can be removed", "[unit][component]") {
+  std::atomic<int> calls{0};
+  std::string last;
+  std::mutex mu;
+  peis::Kernel k(testOptions());
+  peis::Component c(k, "worker");
+  c.onStatusChange([&](ComponentStatus status, const std::string& causes) {
+    std::lock_guard lock(mu);
+    last = std::string(peis::toString(status)) + ":" + causes;
+    ++calls;
+  });
+  c.start();
+  c.fail("camera unplugged");
+  REQUIRE(waitFor([&] { return calls.load() == 2; }));
+  {
+    std::lock_guard lock(mu);
+    CHECK(last == "error:camera unplugged");
+  }
+  c.onStatusChange({});
+  c.start();
+  REQUIRE(waitForData(k, "status", "running"));
+  REQUIRE(fence(k));
+  CHECK(calls == 2);
+}
+
+TEST_CASE("Component outputs: declared, listed, written with their options", "[unit][component]") {
+  peis::Kernel k(testOptions());
+  peis::Component tracker(k, "tracker");
+  peis::WriteOptions json;
+  json.mimetype = "application/json";
+  tracker.output("position", json);
+  tracker.output("confidence");
+  CHECK(tracker.outputs() == std::vector<std::string>{"confidence", "position"});
+  CHECK(dataOf(k, "component.outputs") == "confidence position");
+  CHECK_FALSE(k.get("position").has_value());  // declaring writes no value
+
+  const auto written = tracker.write("position", "{\"x\":1}");
+  CHECK(written.key == "position");
+  CHECK(dataOf(k, "position") == "{\"x\":1}");
+  CHECK(k.get("position")->mimetype == "application/json");
+  tracker.write("confidence", "0.9");
+  CHECK(k.get("confidence")->mimetype == "text/plain");
+
+  REQUIRE_THROWS_MATCHES(tracker.write("postion", "x"), peis::Error, HasCode(ErrorCode::NotFound));
+  CHECK_FALSE(k.get("postion").has_value());
+  REQUIRE_THROWS_MATCHES(tracker.output("position"), peis::Error,
+                         HasCode(ErrorCode::InvalidArgument));
+  REQUIRE_THROWS_MATCHES(tracker.output("bad..key"), peis::Error, HasCode(ErrorCode::InvalidKey));
+}
+
+TEST_CASE("Component output with a ttl expires when the component stops writing",
+          "[unit][component]") {
+  peis::Kernel k(testOptions());
+  peis::Component sensor(k, "sensor");
+  peis::WriteOptions shortLived;
+  shortLived.ttl = 100ms;
+  sensor.output("reading", shortLived);
+  sensor.write("reading", "42");
+  CHECK(k.get("reading")->ts_expire != peis::kNoTime);
+  CHECK(waitFor([&] { return !k.get("reading").has_value(); }));
+}

@@ -21,194 +21,37 @@
 #include "peis/error.h"
 #include "peis/kernel.h"
 #include "peis/key.h"
+#include "support/integration.h"
 #include "support/process.h"
 #include "support/wait_for.h"
 
 using namespace std::chrono_literals;
 using peis::PeisId;
-using peis::test::cliArgs;
 using peis::test::Process;
 using peis::test::uniqueEcology;
 using peis::test::waitFor;
 
-namespace {
-
-constexpr auto kDeadline = std::chrono::milliseconds(20s);
-
-// A PEIS process's id and TCP port, from the line `peis node` prints at start.
-struct NodeInfo {
-  PeisId id = 0;
-  std::uint16_t port = 0;
-};
-
-std::optional<NodeInfo> parseNodeLine(const std::string& text) {
-  static const std::regex line(R"(peis node: PEIS (\d+) '[^']*' on port (\d+))");
-  std::smatch match;
-  if (!std::regex_search(text, match, line)) return std::nullopt;
-  return NodeInfo{static_cast<PeisId>(std::stol(match[1])),
-                  static_cast<std::uint16_t>(std::stoul(match[2]))};
-}
-
-// Starts `peis node` in `ecology` with extra flags.
-std::unique_ptr<Process> startNode(const std::string& ecology,
-                                   std::vector<std::string> flags = {}) {
-  flags.insert(flags.begin(), "node");
-  // The tests read the nodes' log lines, whatever PEIS_LOG the caller has.
-  return std::make_unique<Process>(cliArgs(ecology, std::move(flags)),
-                                   Process::Environment{{"PEIS_LOG", "info"}});
-}
-
-// Waits for a node's start line; fails the test if it never comes.
-NodeInfo awaitNode(Process& node) {
-  std::optional<NodeInfo> info;
-  waitFor(
-      [&] {
-        info = parseNodeLine(node.err());
-        return info.has_value() || !node.running();
-      },
-      kDeadline);
-  INFO(node.describe());
-  REQUIRE(info.has_value());
-  return *info;
-}
-
-struct CliResult {
-  int status = -1;
-  std::string out, err;
-};
-
-// Runs one `peis` command to its end.
-CliResult runCli(const std::string& ecology, std::vector<std::string> args,
-                 std::chrono::milliseconds deadline = std::chrono::milliseconds(30s)) {
-  Process cli(cliArgs(ecology, std::move(args)));
-  const auto status = cli.wait(deadline);
-  INFO(cli.describe());
-  REQUIRE(status.has_value());
-  return CliResult{*status, cli.out(), cli.err()};
-}
-
-std::string describe(const CliResult& r) {
-  return "exit " + std::to_string(r.status) + "\n--- stdout ---\n" + r.out + "\n--- stderr ---\n" +
-         r.err;
-}
-
-peis::Options kernelOptions(const std::string& ecology, const std::string& name,
-                            bool discovery = true, std::vector<std::string> connect = {}) {
-  peis::Options o;
-  o.ecology = ecology;
-  o.name = name;
-  o.discovery = discovery;
-  o.connect = std::move(connect);
-  return o;
-}
-
-std::string localhost(std::uint16_t port) { return "127.0.0.1:" + std::to_string(port); }
-
-std::optional<peis::PeerInfo> peerOf(const peis::Kernel& k, PeisId id) {
-  for (const auto& peer : k.peers()) {
-    if (peer.id == id) return peer;
-  }
-  return std::nullopt;
-}
-
-bool hasPeer(const peis::Kernel& k, PeisId id) { return peerOf(k, id).has_value(); }
-
-std::string valueOf(const peis::Kernel& k, PeisId owner, const std::string& key) {
-  auto tuple = k.get(owner, key);
-  return tuple ? tuple->data : "<absent>";
-}
-
-std::string peersText(const peis::Kernel& k) {
-  std::string text;
-  for (const auto& peer : k.peers()) {
-    text += std::to_string(peer.id) + "'" + peer.name + "'@" + std::to_string(peer.hops) + " ";
-  }
-  return text;
-}
-
-std::vector<std::string> words(const std::string& text) {
-  std::istringstream in(text);
-  std::vector<std::string> result;
-  for (std::string word; in >> word;) result.push_back(word);
-  return result;
-}
-
-bool listContains(const std::string& list, PeisId id) {
-  const auto all = words(list);
-  return std::find(all.begin(), all.end(), std::to_string(id)) != all.end();
-}
-
-std::vector<std::string> lines(const std::string& text) {
-  std::istringstream in(text);
-  std::vector<std::string> result;
-  for (std::string line; std::getline(in, line);) {
-    if (!line.empty()) result.push_back(line);
-  }
-  return result;
-}
-
-PeisId randomId() {
-  std::random_device device;
-  return std::uniform_int_distribution<PeisId>(1000, peis::kMaxPeisId)(device);
-}
-
-// What a test's PEIS look like now, for the message of a failed wait; set
-// for the scope of a StateReport.
-std::function<std::string()>* currentReport = nullptr;
-
-class StateReport {
- public:
-  explicit StateReport(std::function<std::string()> fn)
-      : fn_(std::move(fn)), previous_(currentReport) {
-    currentReport = &fn_;
-  }
-  StateReport(const StateReport&) = delete;
-  StateReport& operator=(const StateReport&) = delete;
-  ~StateReport() { currentReport = previous_; }
-
- private:
-  std::function<std::string()> fn_;
-  std::function<std::string()>* previous_;
-};
-
-std::string reportState() { return currentReport ? (*currentReport)() : std::string(); }
-
-// REQUIRE_WAIT(condition[, deadline]): waits like waitFor; if the condition
-// never held, fails with the state the current StateReport describes then.
-#define REQUIRE_WAIT(...)                          \
-  do {                                             \
-    const bool held_ = waitFor(__VA_ARGS__);       \
-    INFO((held_ ? std::string() : reportState())); \
-    REQUIRE(held_);                                \
-  } while (false)
-
-// Records what a callback sees, for checks from the test thread.
-class Recorder {
- public:
-  void add(std::string entry) {
-    std::lock_guard lock(mu_);
-    entries_.push_back(std::move(entry));
-  }
-  bool contains(const std::string& entry) const {
-    std::lock_guard lock(mu_);
-    return std::find(entries_.begin(), entries_.end(), entry) != entries_.end();
-  }
-  std::vector<std::string> entries() const {
-    std::lock_guard lock(mu_);
-    return entries_;
-  }
-  std::string text() const {
-    std::string all;
-    for (const auto& e : entries()) all += e + "\n";
-    return all;
-  }
-
- private:
-  mutable std::mutex mu_;
-  std::vector<std::string> entries_;
-};
-
-}  // namespace
+using peis::test::awaitNode;
+using peis::test::cliArgs;
+using peis::test::CliResult;
+using peis::test::describe;
+using peis::test::hasPeer;
+using peis::test::kDeadline;
+using peis::test::kernelOptions;
+using peis::test::lines;
+using peis::test::listContains;
+using peis::test::localhost;
+using peis::test::NodeInfo;
+using peis::test::parseNodeLine;
+using peis::test::peerOf;
+using peis::test::peersText;
+using peis::test::randomId;
+using peis::test::Recorder;
+using peis::test::runCli;
+using peis::test::startNode;
+using peis::test::StateReport;
+using peis::test::valueOf;
+using peis::test::words;
 
 // (a) Three separate PEIS processes and an in-process one find each other
 // on one host with nothing but the ecology name.
@@ -622,7 +465,7 @@ TEST_CASE("the peis command-line tool: set, get, watch, tuples, ls, --help", "[i
     INFO(describe(get));
     CHECK(get.status == 1);
     CHECK(get.out.empty());
-    CHECK(get.err.find("has no value") != std::string::npos);
+    CHECK(get.err.find("no key 'missing' at PEIS " + id) != std::string::npos);
   }
 
   SECTION("set to an unknown id fails with a reason") {
@@ -667,7 +510,8 @@ TEST_CASE("the peis command-line tool: set, get, watch, tuples, ls, --help", "[i
   }
 
   SECTION("every subcommand's --help exits 0") {
-    for (const std::string command : {"", "ls", "node", "get", "set", "watch", "tuples", "meta"}) {
+    for (const std::string command : {"", "ls", "node", "get", "set", "watch", "tuples", "meta",
+                                      "info", "hz", "erase", "append"}) {
       std::vector<std::string> args;
       if (!command.empty()) args.push_back(command);
       args.push_back("--help");

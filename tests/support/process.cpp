@@ -42,7 +42,8 @@ std::string readFile(const std::string& path) {
 
 }  // namespace
 
-Process::Process(std::vector<std::string> argv, const Environment& extraEnvironment)
+Process::Process(std::vector<std::string> argv, const Environment& extraEnvironment,
+                 const std::string& stdinPath)
     : argv_(std::move(argv)) {
   if (argv_.empty()) throw std::invalid_argument("Process needs at least argv[0]");
   outPath_ = makeTempFile("out");
@@ -69,7 +70,7 @@ Process::Process(std::vector<std::string> argv, const Environment& extraEnvironm
 
   const int outFd = ::open(outPath_.c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
   const int errFd = ::open(errPath_.c_str(), O_WRONLY | O_TRUNC | O_CLOEXEC);
-  const int nullFd = ::open("/dev/null", O_RDONLY | O_CLOEXEC);
+  const int nullFd = ::open(stdinPath.c_str(), O_RDONLY | O_CLOEXEC);
   if (outFd < 0 || errFd < 0 || nullFd < 0) {
     for (int fd : {outFd, errFd, nullFd})
       if (fd >= 0) ::close(fd);

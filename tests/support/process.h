@@ -20,9 +20,11 @@ class Process {
   using Environment = std::vector<std::pair<std::string, std::string>>;
 
   // Starts argv[0] (a path, not looked up in PATH) with argv, the test's
-  // environment plus `extraEnvironment` (which wins on equal names).
-  // Throws std::runtime_error if it cannot start.
-  explicit Process(std::vector<std::string> argv, const Environment& extraEnvironment = {});
+  // environment plus `extraEnvironment` (which wins on equal names), and
+  // the file `stdinPath` as its stdin. Throws std::runtime_error if it
+  // cannot start.
+  explicit Process(std::vector<std::string> argv, const Environment& extraEnvironment = {},
+                   const std::string& stdinPath = "/dev/null");
   Process(const Process&) = delete;
   Process& operator=(const Process&) = delete;
   ~Process();

@@ -7,6 +7,7 @@
 //   mi-<input>                meta tuple a configurator points at a producer
 //   <act>.reqState / .currState / .status   one actuator
 //   component.name, component.descriptor    who this is, its YAML descriptor
+//   component.outputs         the keys it writes, space-separated
 //   functionalities, functionality.<f>.*   the descriptor as tuples
 //   fact.<name>[.<arg>…]      a fact for preconditions: `in-view(pippi, cam1)`
 //                             is `fact.in-view.pippi.cam1` = `true`
@@ -23,6 +24,7 @@ inline constexpr std::string_view kStatus = "status";
 inline constexpr std::string_view kCauseNames = "cause.names";
 inline constexpr std::string_view kComponentName = "component.name";
 inline constexpr std::string_view kComponentDescriptor = "component.descriptor";
+inline constexpr std::string_view kComponentOutputs = "component.outputs";
 inline constexpr std::string_view kFunctionalities = "functionalities";
 inline constexpr std::string_view kMetaInputPrefix = "mi-";
 inline constexpr std::string_view kFunctionalityPrefix = "functionality.";

@@ -143,6 +143,12 @@ class Kernel {
   // --- the ecology ------------------------------------------------------------
   // Every PEIS reachable now, this one included (hops 0).
   std::vector<PeerInfo> peers() const;
+  // Waits up to `timeout` until a PEIS of that name (or id) is reachable and
+  // returns its id; nothing at the deadline. AmbiguousName when several
+  // reachable PEIS carry the name, InvalidName for a malformed one,
+  // WouldDeadlock on the kernel thread (unless timeout is 0).
+  std::optional<PeisId> waitForPeer(std::string_view idOrName,
+                                    std::chrono::milliseconds timeout) const;
   // The TCP port this PEIS listens on (0 without network).
   std::uint16_t port() const;
   NetworkStats networkStats() const;

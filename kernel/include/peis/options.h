@@ -1,12 +1,15 @@
 // Options of one PEIS: the --peis-* command-line flags, or a struct filled
 // in code. Parsing removes the flags it knows from argv and leaves the rest
-// to the program.
+// to the program. The settings an ecology shares also come from the
+// environment (PEIS_ECOLOGY, PEIS_CONNECT, PEIS_DISCOVERY_PORT,
+// PEIS_LIVENESS_MS, PEIS_MAX_DATA); a flag wins over its variable.
 #pragma once
 
 #include <chrono>
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -32,9 +35,17 @@ struct Options {
   bool help = false;  // --help or -h was given (left in argv)
   std::string programName;  // basename of argv[0]
 
-  // Parses and removes the --peis-* flags from argv (argc is updated).
-  // Throws Error(InvalidArgument) naming the flag and what is wrong.
+  // The defaults with the PEIS_* environment variables applied. Throws
+  // Error(InvalidArgument) naming the variable and what is wrong.
+  static Options fromEnvironment();
+  // fromEnvironment(), then parses and removes the --peis-* flags from argv
+  // (argc is updated); a flag wins over its variable (a --peis-connect flag
+  // replaces PEIS_CONNECT's list). Throws Error(InvalidArgument) naming the
+  // flag or variable and what is wrong.
   static Options fromArgs(int& argc, char** argv);
+  // True for the --peis-* flags that take a value ("--peis-id", ...), so a
+  // program can skip a flag's value when it scans argv itself.
+  static bool isValueFlag(std::string_view flag);
   // Checks the values of a struct filled in code; throws like fromArgs.
   void validate() const;
   // The help text of the --peis-* flags.

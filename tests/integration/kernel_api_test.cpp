@@ -1,0 +1,63 @@
+// Kernel API across PEIS: waitForPeer finds a PEIS that starts later, and
+// a remote write's ttl makes the owner delete the tuple when it expires.
+#include <atomic>
+#include <catch2/catch.hpp>
+#include <thread>
+
+#include "peis/kernel.h"
+#include "support/integration.h"
+#include "support/wait_for.h"
+
+using namespace std::chrono_literals;
+using peis::test::kDeadline;
+using peis::test::kernelOptions;
+using peis::test::uniqueEcology;
+using peis::test::waitFor;
+
+TEST_CASE("waitForPeer returns once a PEIS of that name is reachable", "[integration]") {
+  const auto ecology = uniqueEcology("wait-peer");
+  peis::Kernel waiter(kernelOptions(ecology, "waiter"));
+  std::optional<peis::PeisId> found;
+  std::thread waiting([&] { found = waiter.waitForPeer("late", kDeadline); });
+  auto late = std::make_unique<peis::Kernel>(kernelOptions(ecology, "late"));
+  waiting.join();
+  REQUIRE(found.has_value());
+  CHECK(*found == late->id());
+  CHECK(waiter.waitForPeer(std::to_string(late->id()), 0ms) == found);
+  // Gone again: waiting for it times out.
+  const auto lateId = late->id();
+  late.reset();
+  REQUIRE(waitFor([&] { return !waiter.waitForPeer(std::to_string(lateId), 0ms); }, kDeadline));
+  CHECK_FALSE(waiter.waitForPeer("late", 100ms).has_value());
+}
+
+TEST_CASE("waitForPeer refuses a name two reachable PEIS carry", "[integration]") {
+  const auto ecology = uniqueEcology("wait-twins");
+  peis::Kernel waiter(kernelOptions(ecology, "waiter"));
+  peis::Kernel one(kernelOptions(ecology, "twin"));
+  peis::Kernel two(kernelOptions(ecology, "twin"));
+  REQUIRE(waitFor([&] { return waiter.peers().size() == 3; }, kDeadline));
+  try {
+    waiter.waitForPeer("twin", kDeadline);
+    FAIL("expected AmbiguousName");
+  } catch (const peis::Error& e) {
+    CHECK(e.code() == peis::ErrorCode::AmbiguousName);
+  }
+}
+
+TEST_CASE("a remote write's ttl: the owner deletes the tuple when it expires", "[integration]") {
+  const auto ecology = uniqueEcology("remote-ttl");
+  peis::Kernel owner(kernelOptions(ecology, "owner"));
+  peis::Kernel writer(kernelOptions(ecology, "writer"));
+  REQUIRE(waitFor([&] { return peis::test::hasPeer(writer, owner.id()); }, kDeadline));
+  std::atomic<bool> deleted{false};
+  owner.onDelete(peis::Pattern::exact(owner.id(), "lease"),
+                 [&](const peis::Tuple&) { deleted = true; });
+  peis::WriteOptions options;
+  options.ttl = 300ms;
+  writer.set(owner.id(), "lease", "held", options);
+  REQUIRE(waitFor([&] { return deleted.load(); }, kDeadline));
+  CHECK_FALSE(owner.get("lease").has_value());
+  CHECK(peis::test::valueOf(owner, owner.id(), "kernel.all-keys").find("lease") ==
+        std::string::npos);
+}
