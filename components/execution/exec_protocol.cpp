@@ -75,15 +75,19 @@ std::optional<Action> parseAction(std::string_view text, std::string* problem) {
 
 const char* toString(ExecState state) {
   switch (state) {
-    case ExecState::Running: return "running";
-    case ExecState::Success: return "success";
-    case ExecState::Failed: return "failed";
+    case ExecState::Running:
+      return "running";
+    case ExecState::Success:
+      return "success";
+    case ExecState::Failed:
+      return "failed";
   }
   return "failed";
 }
 
 std::string ExecStatus::toString() const {
-  std::string out = std::string(exec::toString(state)) + " " + std::to_string(goalId) + " " + action;
+  std::string out =
+      std::string(exec::toString(state)) + " " + std::to_string(goalId) + " " + action;
   if (!cause.empty()) out += " " + cause;
   return out;
 }

@@ -9,22 +9,23 @@ namespace peis::exec {
 
 ExecServer::ExecServer(Kernel& kernel, Check check, OnGoal onGoal, WriteGate otherGate)
     : kernel_(kernel), check_(std::move(check)), onGoal_(std::move(onGoal)) {
-  kernel_.setWriteGate([this, otherGate](const Tuple& requested, PeisId writer,
-                                         const WriteDecision& decide) {
-    if (requested.key != kExecGoal) return otherGate ? otherGate(requested, writer, decide) : false;
-    std::string problem;
-    const auto action = parseAction(requested.data, &problem);
-    if (action) {
-      if (const auto why = check_(*action)) problem = *why;
-    }
-    if (!action || !problem.empty()) {
-      ++refused_;
-      decide(Error(ErrorCode::Refused, "ExecGoal '" + requested.data.substr(0, 80) +
-                                           "' refused: " + problem));
-      return true;
-    }
-    return false;
-  });
+  kernel_.setWriteGate(
+      [this, otherGate](const Tuple& requested, PeisId writer, const WriteDecision& decide) {
+        if (requested.key != kExecGoal)
+          return otherGate ? otherGate(requested, writer, decide) : false;
+        std::string problem;
+        const auto action = parseAction(requested.data, &problem);
+        if (action) {
+          if (const auto why = check_(*action)) problem = *why;
+        }
+        if (!action || !problem.empty()) {
+          ++refused_;
+          decide(Error(ErrorCode::Refused,
+                       "ExecGoal '" + requested.data.substr(0, 80) + "' refused: " + problem));
+          return true;
+        }
+        return false;
+      });
   callback_ = kernel_.onChange(Pattern::exact(kernel_.id(), kExecGoal), [this](const Tuple& t) {
     std::string problem;
     auto action = parseAction(t.data, &problem);

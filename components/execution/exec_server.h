@@ -8,12 +8,12 @@
 // `failed <id> Malformed malformed goal '…': <why>`.
 #pragma once
 
+#include <peis/kernel.h>
+
 #include <functional>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <peis/kernel.h>
 
 #include "execution/exec_protocol.h"
 

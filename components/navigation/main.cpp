@@ -66,20 +66,29 @@ int parseArgs(int argc, char** argv, Settings& s) {
     }
     const char* value = argv[++i];
     bool ok = true;
-    if (arg == "--base") s.base = value;
-    else if (arg == "--map-server") s.mapServer = value;
-    else if (arg == "--robot") s.robot = value;
-    else if (arg == "--descriptor") s.descriptor = value;
-    else if (arg == "--fix-freshness") ok = parseDouble(value, s.nav.localizer.fixFreshness);
-    else if (arg == "--max-speed") ok = parseDouble(value, s.nav.follower.maxSpeed) && s.nav.follower.maxSpeed > 0;
-    else if (arg == "--goal-tolerance") ok = parseDouble(value, s.nav.follower.goalTolerance) && s.nav.follower.goalTolerance > 0;
-    else if (arg == "--safety-margin") ok = parseDouble(value, s.nav.inflation.safetyMargin);
+    if (arg == "--base")
+      s.base = value;
+    else if (arg == "--map-server")
+      s.mapServer = value;
+    else if (arg == "--robot")
+      s.robot = value;
+    else if (arg == "--descriptor")
+      s.descriptor = value;
+    else if (arg == "--fix-freshness")
+      ok = parseDouble(value, s.nav.localizer.fixFreshness);
+    else if (arg == "--max-speed")
+      ok = parseDouble(value, s.nav.follower.maxSpeed) && s.nav.follower.maxSpeed > 0;
+    else if (arg == "--goal-tolerance")
+      ok = parseDouble(value, s.nav.follower.goalTolerance) && s.nav.follower.goalTolerance > 0;
+    else if (arg == "--safety-margin")
+      ok = parseDouble(value, s.nav.inflation.safetyMargin);
     else {
       std::cerr << "peis-navigation: unknown option " << arg << "\n" << kUsage;
       return 2;
     }
     if (!ok) {
-      std::cerr << "peis-navigation: " << arg << " takes a non-negative number, not '" << value << "'\n";
+      std::cerr << "peis-navigation: " << arg << " takes a non-negative number, not '" << value
+                << "'\n";
       return 2;
     }
   }
@@ -116,9 +125,11 @@ struct Shell {
     if (out.command && base != 0) {
       char buf[64];
       std::snprintf(buf, sizeof buf, "%.4f %.5f", out.command->v, out.command->w);
-      kernel.setAsync(base, "VelCommand", buf, {}, [this](const std::optional<peis::Error>& e, std::uint64_t) {
-        if (e && e->code() != peis::ErrorCode::Timeout) log(std::string("VelCommand refused: ") + e->what());
-      });
+      kernel.setAsync(base, "VelCommand", buf, {},
+                      [this](const std::optional<peis::Error>& e, std::uint64_t) {
+                        if (e && e->code() != peis::ErrorCode::Timeout)
+                          log(std::string("VelCommand refused: ") + e->what());
+                      });
     }
   }
 
@@ -136,7 +147,8 @@ struct Shell {
 
   void onOdometry(const peis::Tuple& t) {
     const auto v = peis::exec::parseNumbers(t.data);
-    if (!v || v->size() < 3) return log("malformed Odometry '" + t.data.substr(0, 60) + "' ignored");
+    if (!v || v->size() < 3)
+      return log("malformed Odometry '" + t.data.substr(0, 60) + "' ignored");
     const double time = peis::exec::sensorSeconds(t).value_or(
         std::chrono::duration<double>(peis::systemNow().time_since_epoch()).count());
     apply(navigator.onOdometry({(*v)[0], (*v)[1], (*v)[2]}, time));
@@ -156,7 +168,8 @@ struct Shell {
 
   void onFix(const peis::Tuple& t) {
     const auto v = peis::exec::parseNumbers(t.data);
-    if (!v || v->size() < 2) return log("malformed position '" + t.data.substr(0, 60) + "' ignored");
+    if (!v || v->size() < 2)
+      return log("malformed position '" + t.data.substr(0, 60) + "' ignored");
     const auto time = peis::exec::sensorSeconds(t);
     const auto latest = navigator.localizer().estimate();
     if (!latest) return;
@@ -200,18 +213,26 @@ int main(int argc, char** argv) {
     return 1;
   }
   peis::Component component(kernel, "navigation", descriptor);
-  auto shell = std::make_shared<Shell>(Shell{kernel, settings,
-                                             peis::nav::Navigator(settings.nav, {}), 0, 0, {}, {}, {},
-                                             {}, peis::nav::PoseSource::None});
+  auto shell = std::make_shared<Shell>(Shell{kernel,
+                                             settings,
+                                             peis::nav::Navigator(settings.nav, {}),
+                                             0,
+                                             0,
+                                             {},
+                                             {},
+                                             {},
+                                             {},
+                                             peis::nav::PoseSource::None});
   Shell& s = *shell;
-  s.navigator = peis::nav::Navigator(settings.nav, [&s](const std::string& name) -> std::optional<peis::nav::Pose2> {
-    if (s.mapServer == 0) return std::nullopt;
-    const auto t = s.kernel.get(s.mapServer, "place." + name);
-    if (!t) return std::nullopt;
-    const auto v = peis::exec::parseNumbers(t->data);
-    if (!v || v->size() < 2) return std::nullopt;
-    return peis::nav::Pose2{(*v)[0], (*v)[1], v->size() >= 3 ? (*v)[2] : 0.0};
-  });
+  s.navigator = peis::nav::Navigator(
+      settings.nav, [&s](const std::string& name) -> std::optional<peis::nav::Pose2> {
+        if (s.mapServer == 0) return std::nullopt;
+        const auto t = s.kernel.get(s.mapServer, "place." + name);
+        if (!t) return std::nullopt;
+        const auto v = peis::exec::parseNumbers(t->data);
+        if (!v || v->size() < 2) return std::nullopt;
+        return peis::nav::Pose2{(*v)[0], (*v)[1], v->size() >= 3 ? (*v)[2] : 0.0};
+      });
   s.server = std::make_unique<peis::exec::ExecServer>(
       kernel,
       [](const peis::exec::Action& a) -> std::optional<std::string> {
@@ -220,7 +241,8 @@ int main(int argc, char** argv) {
         if (a.args.empty() || a.args.size() > 3) return "GoTo takes a place or X, Y[, THETA]";
         if (a.args.size() >= 2)
           for (const auto& arg : a.args)
-            if (!peis::exec::parseNumber(arg)) return "GoTo(X, Y[, THETA]) takes numbers, not '" + arg + "'";
+            if (!peis::exec::parseNumber(arg))
+              return "GoTo(X, Y[, THETA]) takes numbers, not '" + arg + "'";
         return std::nullopt;
       },
       [&s](const peis::exec::Action& a, std::uint64_t id) { s.apply(s.navigator.onGoal(a, id)); });
@@ -230,13 +252,15 @@ int main(int argc, char** argv) {
   peis::exec::whenPeerKnown(kernel, settings.base, [&s](peis::PeisId id) {
     s.base = id;
     s.log("driver " + s.settings.base + " is PEIS " + std::to_string(id));
-    s.kernel.onChange(peis::Pattern("Odometry", id), [&s](const peis::Tuple& t) { s.onOdometry(t); });
+    s.kernel.onChange(peis::Pattern("Odometry", id),
+                      [&s](const peis::Tuple& t) { s.onOdometry(t); });
     s.kernel.onChange(peis::Pattern("Bumper", id),
                       [&s](const peis::Tuple& t) { s.navigator.onBumper(t.data == "1"); });
     s.kernel.onChange(peis::Pattern("SonarRange", id), [&s](const peis::Tuple& t) {
       if (const auto v = peis::exec::parseNumbers(t.data)) s.navigator.onSonar(*v);
     });
-    s.kernel.onChange(peis::Pattern("Geometry.*", id), [&s](const peis::Tuple&) { s.onGeometry(); });
+    s.kernel.onChange(peis::Pattern("Geometry.*", id),
+                      [&s](const peis::Tuple&) { s.onGeometry(); });
     for (const char* key : {"Odometry", "Bumper", "SonarRange", "Geometry.*"})
       s.kernel.subscribe(peis::Pattern(key, id));
     s.onGeometry();
@@ -252,7 +276,8 @@ int main(int argc, char** argv) {
       s.mapInfoTuple = t;
       s.tryMap();
     });
-    for (const char* key : {"map", "map.info", "place.*", "places"}) s.kernel.subscribe(peis::Pattern(key, id));
+    for (const char* key : {"map", "map.info", "place.*", "places"})
+      s.kernel.subscribe(peis::Pattern(key, id));
   });
   component.start();
   kernel.run();

@@ -21,10 +21,11 @@ struct Disk {
 
 class DiffDriveSim {
  public:
-  DiffDriveSim(Pose2 start, double radius, unsigned seed = 1) : truth_(start), odometry_(start), radius_(radius), rng_(seed) {}
+  DiffDriveSim(Pose2 start, double radius, unsigned seed = 1)
+      : truth_(start), odometry_(start), radius_(radius), rng_(seed) {}
 
-  double odometryNoise = 0;  // standard deviation per metre, translation and rotation
-  double headingDrift = 0;   // radians per metre of systematic drift
+  double odometryNoise = 0;             // standard deviation per metre, translation and rotation
+  double headingDrift = 0;              // radians per metre of systematic drift
   const OccupancyGrid* grid = nullptr;  // walls for collisions and sonar
   std::vector<Disk> obstacles;
 
@@ -66,7 +67,8 @@ class DiffDriveSim {
         for (int dx = -r; dx <= r; ++dx) {
           const Cell o{c.x + dx, c.y + dy};
           if (!grid->inside(o)) continue;
-          if (grid->occupied(o) && distance(grid->centreOf(o), p) < radius_ + res * 0.5) return true;
+          if (grid->occupied(o) && distance(grid->centreOf(o), p) < radius_ + res * 0.5)
+            return true;
         }
     }
     return false;
@@ -79,7 +81,8 @@ class DiffDriveSim {
       double r = 0;
       for (; r < maxRange; r += 0.01) {
         const double d = radius_ + r;
-        const Point2 p{truth_.x + d * std::cos(truth_.theta + a), truth_.y + d * std::sin(truth_.theta + a)};
+        const Point2 p{truth_.x + d * std::cos(truth_.theta + a),
+                       truth_.y + d * std::sin(truth_.theta + a)};
         bool hit = false;
         for (const auto& o : obstacles) hit = hit || distance(p, o.centre) < o.radius;
         if (grid && (!grid->contains(p) || grid->occupied(grid->cellOf(p)))) hit = true;

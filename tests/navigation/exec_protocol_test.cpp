@@ -1,7 +1,7 @@
 // The ExecGoal / ExecStatus texts: parsing, canonical forms and bad input.
-#include <catch2/catch.hpp>
-
 #include "execution/exec_protocol.h"
+
+#include <catch2/catch.hpp>
 
 using namespace peis::exec;
 

@@ -1,7 +1,6 @@
 // Navigation core: the localization switch (fixes when fresh, dead reckoning
 // from the last good fix otherwise) and the path follower.
 #include <catch2/catch.hpp>
-
 #include <cmath>
 
 #include "diff_drive_sim.h"
@@ -39,7 +38,7 @@ TEST_CASE("fixes correct drifting odometry; stale fixes leave dead reckoning fro
   const Pose2 odometryFrame{0.5, -0.4, 0.2};  // map <- odometry, the error to find
   const Pose2 toOdometry = inverse(odometryFrame);
   double t = 100;
-  for (int i = 0; i <= 200; ++i, t += 0.05) {
+  for (int i = 0; i <= 300; ++i, t += 0.05) {
     const Pose2 truth{0.01 * i, 0, 0};
     localizer.onOdometry(compose(toOdometry, truth), t);
     if (i % 2 == 0) localizer.onFix(truth.position(), t);
@@ -47,23 +46,23 @@ TEST_CASE("fixes correct drifting odometry; stale fixes leave dead reckoning fro
   auto e = localizer.estimate();
   REQUIRE(e);
   CHECK(e->source == PoseSource::Fix);
-  CHECK(e->pose.x == Approx(2.0).margin(0.01));
+  CHECK(e->pose.x == Approx(3.0).margin(0.01));
   CHECK(e->pose.y == Approx(0.0).margin(0.01));
   CHECK(e->pose.theta == Approx(0.0).margin(0.03));
 
   // The fixes stop (out of the cameras' view): after the freshness the
   // source is odometry, and the pose keeps following the wheels from there.
-  for (int i = 201; i <= 300; ++i, t += 0.05)
+  for (int i = 301; i <= 400; ++i, t += 0.05)
     localizer.onOdometry(compose(toOdometry, Pose2{0.01 * i, 0, 0}), t);
   e = localizer.estimate();
   REQUIRE(e);
   CHECK(e->source == PoseSource::Odometry);
   CHECK_FALSE(localizer.fixFresh());
-  CHECK(e->pose.x == Approx(3.0).margin(0.03));
+  CHECK(e->pose.x == Approx(4.0).margin(0.03));
   CHECK(e->pose.y == Approx(0.0).margin(0.03));
 
   // Fixes come back: fix-based again at once.
-  localizer.onFix({3.0, 0.0}, t - 0.05);
+  localizer.onFix({4.0, 0.0}, t - 0.05);
   CHECK(localizer.estimate()->source == PoseSource::Fix);
 }
 

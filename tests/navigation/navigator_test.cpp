@@ -2,12 +2,12 @@
 // differential-drive robot (no network): success at the goal, the named
 // failures, a goal replacing another, Stop, a bump and an unmapped obstacle
 // seen by the sonars leading to a replan, and cameras against odometry only.
-#include <catch2/catch.hpp>
+#include "navigator.h"
 
+#include <catch2/catch.hpp>
 #include <map>
 
 #include "diff_drive_sim.h"
-#include "navigator.h"
 
 using namespace peis::nav;
 using peis::exec::ExecState;
@@ -34,7 +34,8 @@ struct Loop {
   }
   static PlaceLookup places() {
     return [](const std::string& name) -> std::optional<Pose2> {
-      static const std::map<std::string, Pose2> known{{"bed", {5.0, 3.0, 1.57}}, {"sofa", {1.0, 1.0, 0}}};
+      static const std::map<std::string, Pose2> known{{"bed", {5.0, 3.0, 1.57}},
+                                                      {"sofa", {1.0, 1.0, 0}}};
       const auto it = known.find(name);
       return it == known.end() ? std::nullopt : std::optional<Pose2>(it->second);
     };
@@ -100,7 +101,8 @@ TEST_CASE("bad goals fail with their cause and leave the robot still", "[unit]")
   failWith("GoTo", "GoTo takes a place or X, Y[, THETA]");
   failWith("Fly(moon)", "unsupported action 'Fly' (navigation does GoTo, Stop)");
   const NavOutput malformed = loop.navigator.onMalformedGoal("GoTo(bed", 10, "expected ')'");
-  CHECK(malformed.statuses.at(0).toString() == "failed 10 Malformed malformed goal 'GoTo(bed': expected ')'");
+  CHECK(malformed.statuses.at(0).toString() ==
+        "failed 10 Malformed malformed goal 'GoTo(bed': expected ')'");
 }
 
 TEST_CASE("an unreachable goal fails with cause 'no path'", "[unit]") {
@@ -139,7 +141,8 @@ TEST_CASE("Stop ends the running goal and halts the robot", "[unit]") {
   loop.take(loop.navigator.onGoal(*peis::exec::parseAction("GoTo(bed)"), 5));
   loop.run(2);
   loop.take(loop.navigator.onGoal(*peis::exec::parseAction("Stop"), 6));
-  CHECK(loop.statuses[loop.statuses.size() - 2].toString() == "failed 5 GoTo(bed) stopped by goal 6");
+  CHECK(loop.statuses[loop.statuses.size() - 2].toString() ==
+        "failed 5 GoTo(bed) stopped by goal 6");
   CHECK(loop.statuses.back().toString() == "success 6 Stop");
   CHECK(loop.command == VelocityCommand{0, 0});
   CHECK(loop.navigator.state() == NavState::Idle);
@@ -147,20 +150,20 @@ TEST_CASE("Stop ends the running goal and halts the robot", "[unit]") {
 
 TEST_CASE("an unmapped obstacle on the path is seen, marked and driven around", "[unit]") {
   Loop loop({0.8, 3.0, 0});
-  loop.robot.obstacles.push_back({{2.0, 3.0}, 0.25});  // a box the map does not know
-  loop.take(loop.navigator.onGoal(*peis::exec::parseAction("GoTo(2.8, 3.0)"), 1));
+  loop.robot.obstacles.push_back({{1.8, 3.0}, 0.25});  // a box the map does not know
+  loop.take(loop.navigator.onGoal(*peis::exec::parseAction("GoTo(2.6, 3.0)"), 1));
   loop.run(90);
-  CHECK(loop.statuses.back().toString() == "success 1 GoTo(2.8, 3.0)");
+  CHECK(loop.statuses.back().toString() == "success 1 GoTo(2.6, 3.0)");
   CHECK(loop.navigator.replans() >= 1);
-  CHECK(distance(loop.robot.truth().position(), {2.8, 3.0}) < 0.06);
+  CHECK(distance(loop.robot.truth().position(), {2.6, 3.0}) < 0.06);
 }
 
 TEST_CASE("a robot that bumps into something it cannot see backs off and replans", "[unit]") {
   NavigatorOptions options;
   Loop loop({0.8, 3.0, 0}, options);
   loop.navigator.setGeometry(0.2, {}, 1.5, 0, 0);  // no sonars: only the bumper tells
-  loop.robot.obstacles.push_back({{2.0, 3.0}, 0.25});
-  loop.take(loop.navigator.onGoal(*peis::exec::parseAction("GoTo(2.8, 3.0)"), 1));
+  loop.robot.obstacles.push_back({{1.8, 3.0}, 0.25});
+  loop.take(loop.navigator.onGoal(*peis::exec::parseAction("GoTo(2.6, 3.0)"), 1));
   const int steps = 90 / 0.05;
   bool bumped = false;
   for (int i = 0; i < steps && loop.navigator.state() != NavState::Idle; ++i) {
@@ -171,7 +174,7 @@ TEST_CASE("a robot that bumps into something it cannot see backs off and replans
   }
   CHECK(bumped);
   CHECK(loop.navigator.replans() >= 1);
-  CHECK(loop.statuses.back().toString() == "success 1 GoTo(2.8, 3.0)");
+  CHECK(loop.statuses.back().toString() == "success 1 GoTo(2.6, 3.0)");
 }
 
 TEST_CASE("with drifting odometry, fixes bring the robot to the goal; without them it misses",

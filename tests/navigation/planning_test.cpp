@@ -1,7 +1,6 @@
 // Navigation core: map parsing, inflation (against a brute-force distance
 // transform) and A* (against an exhaustive Dijkstra over every cell).
 #include <catch2/catch.hpp>
-
 #include <cmath>
 #include <limits>
 #include <queue>
@@ -42,7 +41,8 @@ double dijkstraCost(const Costmap& costmap, Cell start, Cell goal) {
         if (!dx && !dy) continue;
         const Cell n{c.x + dx, c.y + dy};
         if (costmap.lethal(n)) continue;
-        if (dx && dy && (costmap.lethal({c.x + dx, c.y}) || costmap.lethal({c.x, c.y + dy}))) continue;
+        if (dx && dy && (costmap.lethal({c.x + dx, c.y}) || costmap.lethal({c.x, c.y + dy})))
+          continue;
         const double step = (dx && dy ? 1.41421356f : 1.0f) * 0.05f * costmap.stepFactor(n);
         const int ni = static_cast<int>(grid.index(n));
         if (d + step < dist[ni]) {
@@ -84,7 +84,8 @@ TEST_CASE("map.info and the PGM map are read and checked", "[unit]") {
                     Catch::Contains("11 bytes of pixels, 12 expected"));
   CHECK_THROWS_WITH(parsePgmMap("P5\n4 x\n255\n", info), Catch::Contains("height 'x'"));
   CHECK_THROWS_WITH(parsePgmMap("P5\n4 3\n65535\n", info), Catch::Contains("16-bit"));
-  CHECK_THROWS_WITH(parsePgmMap("P5\n# a comment\n4 3\n255", info), Catch::Contains("no pixel data"));
+  CHECK_THROWS_WITH(parsePgmMap("P5\n# a comment\n4 3\n255", info),
+                    Catch::Contains("no pixel data"));
 }
 
 TEST_CASE("the distance transform is exact (against brute force)", "[unit]") {
@@ -139,8 +140,9 @@ TEST_CASE("A* finds the cheapest path (against exhaustive Dijkstra)", "[unit]") 
     CHECK(path.cells.back() == goal);
     for (std::size_t i = 0; i < path.cells.size(); ++i) {
       REQUIRE_FALSE(costmap.lethal(path.cells[i]));
-      if (i) REQUIRE(std::max(std::abs(path.cells[i].x - path.cells[i - 1].x),
-                              std::abs(path.cells[i].y - path.cells[i - 1].y)) == 1);
+      if (i)
+        REQUIRE(std::max(std::abs(path.cells[i].x - path.cells[i - 1].x),
+                         std::abs(path.cells[i].y - path.cells[i - 1].y)) == 1);
     }
     for (std::size_t i = 1; i < path.waypoints.size(); ++i)
       REQUIRE(segmentFree(costmap, path.waypoints[i - 1], path.waypoints[i]));

@@ -11,12 +11,18 @@ namespace peis::nav {
 
 const char* toString(PlanFailure failure) {
   switch (failure) {
-    case PlanFailure::None: return "none";
-    case PlanFailure::StartOutsideMap: return "robot outside the map";
-    case PlanFailure::GoalOutsideMap: return "goal outside the map";
-    case PlanFailure::StartBlocked: return "robot in an obstacle";
-    case PlanFailure::GoalBlocked: return "goal blocked";
-    case PlanFailure::NoPath: return "no path";
+    case PlanFailure::None:
+      return "none";
+    case PlanFailure::StartOutsideMap:
+      return "robot outside the map";
+    case PlanFailure::GoalOutsideMap:
+      return "goal outside the map";
+    case PlanFailure::StartBlocked:
+      return "robot in an obstacle";
+    case PlanFailure::GoalBlocked:
+      return "goal blocked";
+    case PlanFailure::NoPath:
+      return "no path";
   }
   return "unknown";
 }
@@ -47,7 +53,8 @@ std::optional<Cell> nearestFree(const Costmap& costmap, Cell from, double radius
 float worstFactorAlong(const Costmap& costmap, Point2 a, Point2 b) {
   const auto& grid = costmap.grid();
   const double length = distance(a, b);
-  const int steps = std::max(1, static_cast<int>(std::ceil(length / (grid.info().resolution * 0.5))));
+  const int steps =
+      std::max(1, static_cast<int>(std::ceil(length / (grid.info().resolution * 0.5))));
   float worst = 1.0f;
   for (int i = 0; i <= steps; ++i) {
     const double t = double(i) / steps;
@@ -96,7 +103,8 @@ bool segmentFree(const Costmap& costmap, Point2 a, Point2 b) {
   return std::isfinite(worstFactorAlong(costmap, a, b));
 }
 
-PlannedPath planPath(const Costmap& costmap, Point2 start, Point2 goal, const PlanOptions& options) {
+PlannedPath planPath(const Costmap& costmap, Point2 start, Point2 goal,
+                     const PlanOptions& options) {
   PlannedPath result;
   const auto& grid = costmap.grid();
   Cell startCell = grid.cellOf(start);

@@ -83,9 +83,10 @@ void Costmap::classify(std::size_t i) {
   const double c = clearance_[i];
   lethal_[i] = c < lethalBelow ? 1 : 0;
   const double into = lethalBelow + options_.comfortDistance - c;
-  factor_[i] = into > 0 && options_.comfortDistance > 0
-                   ? static_cast<float>(1.0 + options_.comfortWeight * into / options_.comfortDistance)
-                   : 1.0f;
+  factor_[i] =
+      into > 0 && options_.comfortDistance > 0
+          ? static_cast<float>(1.0 + options_.comfortWeight * into / options_.comfortDistance)
+          : 1.0f;
 }
 
 void Costmap::addObstacle(Point2 p, double radius) {
@@ -97,8 +98,8 @@ void Costmap::addObstacle(Point2 p, double radius) {
       const Cell c{centre.x + dx, centre.y + dy};
       if (grid_.inside(c) && std::hypot(dx, dy) * res <= radius) grid_.setOccupied(c, true);
     }
-  const double reach = radius + options_.robotRadius + options_.safetyMargin +
-                       options_.comfortDistance;
+  const double reach =
+      radius + options_.robotRadius + options_.safetyMargin + options_.comfortDistance;
   inflateAround(centre, static_cast<int>(std::ceil(reach / res)) + 1);
 }
 

@@ -14,10 +14,10 @@
 namespace peis::nav {
 
 struct InflationOptions {
-  double robotRadius = 0.2;  // metres
-  double safetyMargin = 0.02;  // added to the radius: lethal below radius + margin
+  double robotRadius = 0.2;       // metres
+  double safetyMargin = 0.02;     // added to the radius: lethal below radius + margin
   double comfortDistance = 0.25;  // beyond the lethal distance, cells cost extra for this far
-  double comfortWeight = 2.0;  // at most this much extra per metre travelled
+  double comfortWeight = 2.0;     // at most this much extra per metre travelled
 };
 
 class Costmap {

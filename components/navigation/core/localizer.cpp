@@ -7,9 +7,12 @@ namespace peis::nav {
 
 const char* toString(PoseSource source) {
   switch (source) {
-    case PoseSource::None: return "none";
-    case PoseSource::Fix: return "fix";
-    case PoseSource::Odometry: return "odometry";
+    case PoseSource::None:
+      return "none";
+    case PoseSource::Fix:
+      return "fix";
+    case PoseSource::Odometry:
+      return "odometry";
   }
   return "none";
 }
@@ -59,7 +62,8 @@ bool Localizer::onFix(Point2 position, double time) {
         const Pose2 pivot = compose(correction_, *odometry);
         const Pose2 rotated{0, 0, turn};
         const Pose2 aboutPivot{pivot.x, pivot.y, 0};
-        correction_ = compose(compose(compose(aboutPivot, rotated), inverse(aboutPivot)), correction_);
+        correction_ =
+            compose(compose(compose(aboutPivot, rotated), inverse(aboutPivot)), correction_);
       }
       anchor_ = {{position, *odometry}};
     }

@@ -29,9 +29,9 @@ enum class PoseSource { None, Fix, Odometry };
 const char* toString(PoseSource source);
 
 struct LocalizerOptions {
-  double fixFreshness = 1.0;  // seconds: a fix older than this (vs. odometry time) is stale
-  double positionGain = 0.5;  // share of a fix's position residual applied
-  double headingGain = 0.3;   // share of the heading residual applied
+  double fixFreshness = 1.0;     // seconds: a fix older than this (vs. odometry time) is stale
+  double positionGain = 0.5;     // share of a fix's position residual applied
+  double headingGain = 0.5;      // share of the heading residual applied
   double headingBaseline = 0.5;  // metres travelled between fixes before heading is corrected
   double historySeconds = 3.0;   // odometry kept to look up the pose at a fix's time
 };
@@ -63,7 +63,7 @@ class Localizer {
   std::optional<Pose2> odometryAt(double time) const;
 
   LocalizerOptions options_;
-  Pose2 correction_;  // map <- odometry
+  Pose2 correction_;                              // map <- odometry
   std::deque<std::pair<double, Pose2>> history_;  // (time, odometry pose), oldest first
   std::optional<double> lastFixTime_;
   // The fix that starts the current heading baseline, with the odometry pose then.

@@ -9,10 +9,14 @@ namespace peis::nav {
 
 const char* toString(NavState state) {
   switch (state) {
-    case NavState::Idle: return "idle";
-    case NavState::Pending: return "pending";
-    case NavState::Following: return "following";
-    case NavState::BackingOff: return "backing-off";
+    case NavState::Idle:
+      return "idle";
+    case NavState::Pending:
+      return "pending";
+    case NavState::Following:
+      return "following";
+    case NavState::BackingOff:
+      return "backing-off";
   }
   return "idle";
 }
@@ -95,8 +99,8 @@ void Navigator::finish(NavOutput& out, exec::ExecState state, const std::string&
 NavOutput Navigator::onMalformedGoal(const std::string& text, std::uint64_t goalId,
                                      const std::string& problem) {
   NavOutput out;
-  out.statuses.push_back({exec::ExecState::Failed, goalId, "Malformed", "malformed goal '" + text +
-                                                                           "': " + problem});
+  out.statuses.push_back(
+      {exec::ExecState::Failed, goalId, "Malformed", "malformed goal '" + text + "': " + problem});
   return out;
 }
 
@@ -110,8 +114,9 @@ NavOutput Navigator::onGoal(const exec::Action& action, std::uint64_t goalId) {
     return out;
   }
   if (action.name != "GoTo") {
-    out.statuses.push_back({exec::ExecState::Failed, goalId, text,
-                            "unsupported action '" + action.name + "' (navigation does GoTo, Stop)"});
+    out.statuses.push_back(
+        {exec::ExecState::Failed, goalId, text,
+         "unsupported action '" + action.name + "' (navigation does GoTo, Stop)"});
     return out;
   }
   std::string cause;
@@ -156,7 +161,8 @@ bool Navigator::sonarBlocksPath(const Pose2& pose, NavOutput& out) {
   bool added = false;
   for (std::size_t i = 0; i < sonar_.size() && i < options_.sonarAngles.size(); ++i) {
     const double range = sonar_[i];
-    if (!(range >= 0) || range >= options_.sonarMaxRange || range > options_.sonarLookAhead) continue;
+    if (!(range >= 0) || range >= options_.sonarMaxRange || range > options_.sonarLookAhead)
+      continue;
     const double angle = pose.theta + options_.sonarAngles[i];
     const double reach = radius + range + 0.5 * options_.obstacleRadius;
     const Point2 hit{pose.x + reach * std::cos(angle), pose.y + reach * std::sin(angle)};
@@ -220,7 +226,8 @@ NavOutput Navigator::onOdometry(const Pose2& odometry, double time) {
           break;
         }
         const double ahead = options_.inflation.robotRadius + 0.5 * options_.obstacleRadius;
-        const Point2 contact{pose.x + ahead * std::cos(pose.theta), pose.y + ahead * std::sin(pose.theta)};
+        const Point2 contact{pose.x + ahead * std::cos(pose.theta),
+                             pose.y + ahead * std::sin(pose.theta)};
         if (mapGrid_.contains(contact) && !mapGrid_.occupied(mapGrid_.cellOf(contact)))
           costmap_.addObstacle(contact, options_.obstacleRadius);
         out.log.push_back("bumped at " + describe(pose.position()) + ": backing off, replanning");

@@ -22,9 +22,9 @@
 #include <string>
 #include <vector>
 
-#include "execution/exec_protocol.h"
 #include "astar.h"
 #include "costmap.h"
+#include "execution/exec_protocol.h"
 #include "localizer.h"
 #include "path_follower.h"
 
@@ -35,11 +35,12 @@ struct NavigatorOptions {
   LocalizerOptions localizer;
   FollowerOptions follower;
   PlanOptions planner;
-  int maxReplans = 6;            // per goal, before `failed blocked`
-  double backOffSeconds = 0.6;   // after a bump, reverse this long
-  double backOffSpeed = 0.1;     // m/s
-  double obstacleRadius = 0.1;   // metres: what a sonar echo or a bump marks occupied
-  double sonarLookAhead = 0.35;  // metres beyond the rim: an unmapped echo this near, on the path, blocks it
+  int maxReplans = 6;           // per goal, before `failed blocked`
+  double backOffSeconds = 0.6;  // after a bump, reverse this long
+  double backOffSpeed = 0.1;    // m/s
+  double obstacleRadius = 0.1;  // metres: what a sonar echo or a bump marks occupied
+  double sonarLookAhead =
+      0.35;  // metres beyond the rim: an unmapped echo this near, on the path, blocks it
   double mapWaitSeconds = 10.0;  // a goal waits this long for a map, then fails `no map`
   // Sonar geometry (from the driver's Geometry.* tuples).
   std::vector<double> sonarAngles;
@@ -51,8 +52,8 @@ const char* toString(NavState state);
 
 // What the shell must do after an event.
 struct NavOutput {
-  std::optional<VelocityCommand> command;  // write VelCommand
-  std::vector<exec::ExecStatus> statuses;  // write ExecStatus, in order
+  std::optional<VelocityCommand> command;   // write VelCommand
+  std::vector<exec::ExecStatus> statuses;   // write ExecStatus, in order
   std::optional<std::vector<Point2>> path;  // publish path.<robot> (empty: none)
   std::vector<std::string> log;             // lines for the log
 };
@@ -73,7 +74,8 @@ class Navigator {
   // A goal written to ExecGoal, with the id the status will carry.
   NavOutput onGoal(const exec::Action& action, std::uint64_t goalId);
   // A malformed ExecGoal: reported failed at once (the running goal goes on).
-  NavOutput onMalformedGoal(const std::string& text, std::uint64_t goalId, const std::string& problem);
+  NavOutput onMalformedGoal(const std::string& text, std::uint64_t goalId,
+                            const std::string& problem);
   // Odometry drives the control loop: one command per reading.
   NavOutput onOdometry(const Pose2& odometry, double time);
   void onFix(Point2 position, double time) { localizer_.onFix(position, time); }

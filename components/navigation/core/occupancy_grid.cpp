@@ -113,7 +113,8 @@ OccupancyGrid parsePgmMap(std::string_view pgm, const GridInfo& info) {
   for (int row = 0; row < height; ++row) {
     const int cy = height - 1 - row;  // PGM row 0 is the top
     for (int cx = 0; cx < width; ++cx) {
-      const auto grey = static_cast<unsigned char>(pgm[pos + static_cast<std::size_t>(row) * width + cx]);
+      const auto grey =
+          static_cast<unsigned char>(pgm[pos + static_cast<std::size_t>(row) * width + cx]);
       if (grey < threshold) grid.setOccupied({cx, cy}, true);
     }
   }
@@ -121,8 +122,8 @@ OccupancyGrid parsePgmMap(std::string_view pgm, const GridInfo& info) {
 }
 
 std::string toPgm(const OccupancyGrid& grid) {
-  std::string out = "P5\n" + std::to_string(grid.width()) + " " + std::to_string(grid.height()) +
-                    "\n255\n";
+  std::string out =
+      "P5\n" + std::to_string(grid.width()) + " " + std::to_string(grid.height()) + "\n255\n";
   out.reserve(out.size() + grid.cells().size());
   for (int row = 0; row < grid.height(); ++row) {
     const int cy = grid.height() - 1 - row;

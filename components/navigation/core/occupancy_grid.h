@@ -22,7 +22,7 @@ class MapError : public std::runtime_error {
 };
 
 struct GridInfo {
-  double resolution = 0.05;  // metres per cell
+  double resolution = 0.05;         // metres per cell
   double originX = 0, originY = 0;  // map coordinates of the lower-left corner
   int width = 0, height = 0;        // cells
   bool operator==(const GridInfo&) const = default;
@@ -42,7 +42,9 @@ class OccupancyGrid {
   const GridInfo& info() const { return info_; }
   int width() const { return info_.width; }
   int height() const { return info_.height; }
-  bool inside(Cell c) const { return c.x >= 0 && c.y >= 0 && c.x < info_.width && c.y < info_.height; }
+  bool inside(Cell c) const {
+    return c.x >= 0 && c.y >= 0 && c.x < info_.width && c.y < info_.height;
+  }
   bool occupied(Cell c) const { return occupied_[index(c)] != 0; }
   void setOccupied(Cell c, bool occupied) { occupied_[index(c)] = occupied ? 1 : 0; }
   std::size_t index(Cell c) const {

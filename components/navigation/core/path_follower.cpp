@@ -51,7 +51,8 @@ VelocityCommand PathFollower::update(const Pose2& pose) {
       arrived_ = true;
       return {};
     }
-    const double w = std::clamp(options_.turnGain * error, -options_.maxTurnRate, options_.maxTurnRate);
+    const double w =
+        std::clamp(options_.turnGain * error, -options_.maxTurnRate, options_.maxTurnRate);
     // Keep turning fast enough to overcome a sluggish base near the end.
     return {0, std::copysign(std::max(std::abs(w), 0.15), error)};
   }
@@ -96,13 +97,15 @@ VelocityCommand PathFollower::update(const Pose2& pose) {
   const double bearing = std::atan2(carrot_.y - here.y, carrot_.x - here.x);
   const double alpha = normalizeAngle(bearing - pose.theta);
   if (std::abs(alpha) > options_.turnInPlaceAbove) {
-    const double w = std::clamp(options_.turnGain * alpha, -options_.maxTurnRate, options_.maxTurnRate);
+    const double w =
+        std::clamp(options_.turnGain * alpha, -options_.maxTurnRate, options_.maxTurnRate);
     return {0, w};
   }
   const double approach = std::min(remaining_, toGoal * 1.5);
   double v = options_.maxSpeed;
   if (approach < options_.approachDistance)
-    v = std::max(options_.minApproachSpeed, options_.maxSpeed * approach / options_.approachDistance);
+    v = std::max(options_.minApproachSpeed,
+                 options_.maxSpeed * approach / options_.approachDistance);
   v *= std::max(0.2, std::cos(alpha));
   const double lookahead = std::max(distance(here, carrot_), 1e-3);
   double w = 2.0 * v * std::sin(alpha) / lookahead;  // pure pursuit curvature times speed

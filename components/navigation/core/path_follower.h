@@ -13,10 +13,10 @@
 namespace peis::nav {
 
 struct FollowerOptions {
-  double maxSpeed = 0.35;        // m/s
-  double maxTurnRate = 1.0;      // rad/s
-  double lookahead = 0.35;       // metres
-  double goalTolerance = 0.03;   // metres: arrived
+  double maxSpeed = 0.35;          // m/s
+  double maxTurnRate = 1.0;        // rad/s
+  double lookahead = 0.35;         // metres
+  double goalTolerance = 0.03;     // metres: arrived
   double headingTolerance = 0.08;  // radians: final heading reached
   double turnInPlaceAbove = 0.7;   // radians of heading error
   double approachDistance = 0.5;   // metres: start slowing down
