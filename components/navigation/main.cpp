@@ -14,6 +14,7 @@
 #include <string>
 
 #include "execution/exec_server.h"
+#include "navigation_descriptor.h"
 #include "navigator.h"
 
 namespace {
@@ -29,7 +30,7 @@ Options:
   --map-server NAME     the PEIS with map, map.info and place.* (default: world)
   --robot NAME          the robot's name in path.<robot> (default: the driver's
                         name without -base)
-  --descriptor FILE     functionality descriptor (default: the shipped navigation.yaml)
+  --descriptor FILE     functionality descriptor (default: the built-in navigation.yaml)
   --fix-freshness S     a position fix older than S seconds of sensor time is
                         stale: dead reckoning from the last fix (default 1.0)
   --max-speed V         m/s (default 0.35; the driver's limit wins if lower)
@@ -42,7 +43,7 @@ mi-position (input: the tracker's position tuple, "X Y ..." with ts_user).
 )";
 
 struct Settings {
-  std::string base, mapServer = "world", robot, descriptor = PEIS_NAVIGATION_DESCRIPTOR;
+  std::string base, mapServer = "world", robot, descriptor;
   peis::nav::NavigatorOptions nav;
 };
 
@@ -207,7 +208,9 @@ int main(int argc, char** argv) {
   }
   peis::Descriptor descriptor;
   try {
-    descriptor = peis::Descriptor::fromFile(settings.descriptor);
+    descriptor = settings.descriptor.empty()
+                     ? peis::Descriptor::fromYaml(kNavigationDescriptor, "navigation.yaml")
+                     : peis::Descriptor::fromFile(settings.descriptor);
   } catch (const peis::Error& e) {
     std::cerr << "peis-navigation: " << e.what() << "\n";
     return 1;

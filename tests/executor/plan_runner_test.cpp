@@ -195,3 +195,31 @@ TEST_CASE("an undispatchable step and an empty plan", "[unit]") {
   CHECK(out.back().kind == Kind::RequestPlan);
   CHECK(out.back().text.find("cannot dispatch Wait") == 0);
 }
+
+#include "plan_text.h"
+
+TEST_CASE("plans, needs and static links as text", "[unit]") {
+  const auto plan = parsePlan(
+      "GoTo(Pippi, bed) | position(pippi)@Pippi.mi-position ; Talk(Pippi, wakeup); GoTo(Pippi,sofa)");
+  REQUIRE(plan.size() == 3);
+  CHECK(plan[0] == PlanStep{"GoTo", {"Pippi", "bed"}, {kPos}});
+  CHECK(plan[1].needs.empty());
+  CHECK(formatPlan(plan) ==
+        "GoTo(Pippi, bed) | position(pippi)@Pippi.mi-position; Talk(Pippi, wakeup); GoTo(Pippi, sofa)");
+  CHECK(parsePlan(formatPlan(plan)) == plan);
+  CHECK(parsePlan("  ").empty());
+  CHECK_THROWS_WITH(parsePlan("GoTo(bed"), Catch::Contains("plan step 'GoTo(bed'"));
+  CHECK_THROWS_WITH(parsePlan("GoTo(bed) | position"), Catch::Contains("is not INFORMATION@PEIS.KEY"));
+  const auto need = parseNeed(kPos);
+  REQUIRE(need);
+  CHECK(need->information == "position(pippi)");
+  CHECK(need->consumer == "Pippi");
+  CHECK(need->key == "mi-position");
+  CHECK_FALSE(parseNeed("position(pippi)@Pippi"));
+  CHECK_FALSE(parseNeed("@Pippi.mi-position"));
+  const auto link = parseStaticLink("position(pippi)=tracker.position.Pippi");
+  CHECK(link.producer == "tracker");
+  CHECK(link.key == "position.Pippi");
+  CHECK_THROWS_AS(parseStaticLink("position(pippi)"), std::invalid_argument);
+  CHECK_THROWS_AS(parseStaticLink("position(pippi)=tracker."), std::invalid_argument);
+}

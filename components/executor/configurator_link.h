@@ -1,0 +1,46 @@
+// How the executor gets the configuration a step needs, kept behind one small
+// interface because the configurator (meta-level, branch meta-runtime) and
+// its goal tuples are not there yet. `post` asks for the needs of a step and
+// reports through `done` (no error = deployed); `withdraw` gives them back.
+//
+// StaticConfigurator is the hand-written configuration of the tiny paper's
+// experiment ("the ecology configuration has been hand-coded"): a table
+// INFORMATION -> producer PEIS.KEY; posting `position(pippi)@Pippi.mi-position`
+// points Pippi's meta tuple mi-position at the producer (a remote write the
+// consumer acknowledges), withdrawing empties it. A configurator-backed
+// implementation replaces it once docs/configuration.md defines the goals.
+#pragma once
+
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <peis/kernel.h>
+
+#include "plan_text.h"
+
+namespace peis::executor {
+
+class ConfiguratorLink {
+ public:
+  using Done = std::function<void(const std::optional<std::string>& error)>;
+  virtual ~ConfiguratorLink() = default;
+  // Runs on the kernel thread; `done` is called there, once.
+  virtual void post(const std::vector<std::string>& needs, Done done) = 0;
+  virtual void withdraw(const std::vector<std::string>& needs) = 0;
+};
+
+class StaticConfigurator : public ConfiguratorLink {
+ public:
+  StaticConfigurator(Kernel& kernel, std::vector<StaticLink> links);
+  void post(const std::vector<std::string>& needs, Done done) override;
+  void withdraw(const std::vector<std::string>& needs) override;
+
+ private:
+  Kernel& kernel_;
+  std::map<std::string, StaticLink> links_;
+};
+
+}  // namespace peis::executor
