@@ -18,7 +18,7 @@
 
 namespace {
 
-const char* kUsage = R"(Usage: peis-executor [OPTIONS] [--peis-* flags]
+const char* kUsage = R"usage(Usage: peis-executor [OPTIONS] [--peis-* flags]
 
 Runs a plan: for each step, deploys the configuration it needs, writes the
 step's ExecGoal to the PEIS that executes it and follows that PEIS's ExecStatus.
@@ -40,7 +40,7 @@ Options:
   --help              this text
 
 Tuples: plan (in), plan.status (running / success / failed: CAUSE), plan.step.
-)";
+)usage";
 
 struct Settings {
   std::string plan;
@@ -77,7 +77,8 @@ int parseArgs(int argc, char** argv, Settings& s) {
         s.links.push_back(peis::executor::parseStaticLink(value));
       } else if (arg == "--replans" || arg == "--deploy-timeout" || arg == "--step-timeout") {
         const auto number = peis::exec::parseNumber(value);
-        if (!number || *number < 0) throw std::invalid_argument(arg + " takes a non-negative number");
+        if (!number || *number < 0)
+          throw std::invalid_argument(arg + " takes a non-negative number");
         if (arg == "--replans") s.replans = static_cast<int>(*number);
         if (arg == "--deploy-timeout") s.deployTimeout = *number;
         if (arg == "--step-timeout") s.stepTimeout = *number;
@@ -110,9 +111,15 @@ struct Shell {
   void publishPhase() {
     std::string text;
     switch (runner.phase()) {
-      case Phase::Succeeded: text = "success"; break;
-      case Phase::Failed: text = "failed: " + runner.cause(); break;
-      case Phase::Idle: text = "idle"; break;
+      case Phase::Succeeded:
+        text = "success";
+        break;
+      case Phase::Failed:
+        text = "failed: " + runner.cause();
+        break;
+      case Phase::Idle:
+        text = "idle";
+        break;
       default:
         text = std::string("running ") + toString(runner.phase()) + " step " +
                std::to_string(runner.stepIndex() + 1) + "/" + std::to_string(runner.plan().size());
@@ -176,11 +183,11 @@ struct Shell {
         }
         watch(id);
         log("ExecGoal " + c.dispatch.peis + " <- " + c.dispatch.goal);
-        kernel.setAsync(id, peis::exec::kExecGoal, c.dispatch.goal, {},
-                        [this](const std::optional<peis::Error>& error, std::uint64_t seqno) {
-                          apply(error ? runner.onGoalRefused(error->what())
-                                      : runner.onGoalAccepted(seqno));
-                        });
+        kernel.setAsync(
+            id, peis::exec::kExecGoal, c.dispatch.goal, {},
+            [this](const std::optional<peis::Error>& error, std::uint64_t seqno) {
+              apply(error ? runner.onGoalRefused(error->what()) : runner.onGoalAccepted(seqno));
+            });
         break;
       }
       case Command::Kind::RequestPlan: {
@@ -228,8 +235,12 @@ int main(int argc, char** argv) {
   if (const int code = parseArgs(argc, argv, settings); code >= 0) return code;
   peis::Component component(kernel, "executor",
                             peis::Descriptor::fromYaml(kExecutorDescriptor, "executor.yaml"));
-  Shell shell{kernel, settings, peis::executor::PlanRunner(settings.actions, settings.replans),
-              std::make_unique<peis::executor::StaticConfigurator>(kernel, settings.links), {}, -1};
+  Shell shell{kernel,
+              settings,
+              peis::executor::PlanRunner(settings.actions, settings.replans),
+              std::make_unique<peis::executor::StaticConfigurator>(kernel, settings.links),
+              {},
+              -1};
   // A plan written to `plan` (locally or remotely) starts a run; a malformed
   // one is refused at the gate.
   kernel.setWriteGate([](const peis::Tuple& t, peis::PeisId, const peis::WriteDecision& decide) {

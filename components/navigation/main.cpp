@@ -10,16 +10,16 @@
 #include <cstdio>
 #include <cstring>
 #include <iostream>
-#include <map>
+#include <memory>
 #include <string>
 
 #include "execution/exec_server.h"
 #include "navigation_descriptor.h"
-#include "navigator.h"
+#include "robot_link.h"
 
 namespace {
 
-const char* kUsage = R"(Usage: peis-navigation [OPTIONS] [--peis-* flags]
+const char* kUsage = R"usage(Usage: peis-navigation [OPTIONS] [--peis-* flags]
 
 The navigation component of a robot: takes ExecGoal tuples (GoTo(bed),
 GoTo(X, Y), GoTo(X, Y, THETA), Stop), plans on the map server's grid, drives the
@@ -40,7 +40,7 @@ Options:
 
 Tuples: ExecGoal (in, write it remotely), ExecStatus, pose, path.<robot>;
 mi-position (input: the tracker's position tuple, "X Y ..." with ts_user).
-)";
+)usage";
 
 struct Settings {
   std::string base, mapServer = "world", robot, descriptor;
@@ -96,104 +96,6 @@ int parseArgs(int argc, char** argv, Settings& s) {
   return -1;
 }
 
-std::string formatPath(const std::vector<peis::nav::Point2>& path) {
-  std::string out;
-  char buf[48];
-  for (const auto& p : path) {
-    std::snprintf(buf, sizeof buf, "%s%.4f %.4f", out.empty() ? "" : " ", p.x, p.y);
-    out += buf;
-  }
-  return out;
-}
-
-// Everything the callbacks share; used on the kernel thread only.
-struct Shell {
-  peis::Kernel& kernel;
-  Settings settings;
-  peis::nav::Navigator navigator;
-  peis::PeisId base = 0, mapServer = 0;
-  std::optional<peis::Tuple> mapTuple, mapInfoTuple;
-  std::map<std::string, peis::nav::Pose2> places;
-  std::unique_ptr<peis::exec::ExecServer> server;
-  peis::nav::PoseSource lastSource = peis::nav::PoseSource::None;
-
-  void log(const std::string& line) { std::cerr << "navigation: " << line << std::endl; }
-
-  void apply(const peis::nav::NavOutput& out) {
-    for (const auto& line : out.log) log(line);
-    for (const auto& status : out.statuses) server->publish(status);
-    if (out.path) kernel.set("path." + settings.robot, formatPath(*out.path));
-    if (out.command && base != 0) {
-      char buf[64];
-      std::snprintf(buf, sizeof buf, "%.4f %.5f", out.command->v, out.command->w);
-      kernel.setAsync(base, "VelCommand", buf, {},
-                      [this](const std::optional<peis::Error>& e, std::uint64_t) {
-                        if (e && e->code() != peis::ErrorCode::Timeout)
-                          log(std::string("VelCommand refused: ") + e->what());
-                      });
-    }
-  }
-
-  void tryMap() {
-    if (!mapTuple || !mapInfoTuple) return;
-    try {
-      const auto info = peis::nav::parseMapInfo(mapInfoTuple->data);
-      navigator.setMap(peis::nav::parsePgmMap(mapTuple->data, info));
-      log("map " + std::to_string(info.width) + "x" + std::to_string(info.height) + " cells at " +
-          std::to_string(info.resolution) + " m");
-    } catch (const peis::nav::MapError& e) {
-      log(std::string("cannot use the map: ") + e.what());
-    }
-  }
-
-  void onOdometry(const peis::Tuple& t) {
-    const auto v = peis::exec::parseNumbers(t.data);
-    if (!v || v->size() < 3)
-      return log("malformed Odometry '" + t.data.substr(0, 60) + "' ignored");
-    const double time = peis::exec::sensorSeconds(t).value_or(
-        std::chrono::duration<double>(peis::systemNow().time_since_epoch()).count());
-    apply(navigator.onOdometry({(*v)[0], (*v)[1], (*v)[2]}, time));
-    const auto estimate = navigator.localizer().estimate();
-    if (!estimate) return;
-    if (estimate->source != lastSource) {
-      log(std::string("localizing from ") + toString(estimate->source));
-      lastSource = estimate->source;
-    }
-    char buf[96];
-    std::snprintf(buf, sizeof buf, "%.4f %.4f %.5f %s", estimate->pose.x, estimate->pose.y,
-                  estimate->pose.theta, toString(estimate->source));
-    peis::WriteOptions options;
-    options.ts_user = t.ts_user;
-    kernel.set("pose", buf, options);
-  }
-
-  void onFix(const peis::Tuple& t) {
-    const auto v = peis::exec::parseNumbers(t.data);
-    if (!v || v->size() < 2)
-      return log("malformed position '" + t.data.substr(0, 60) + "' ignored");
-    const auto time = peis::exec::sensorSeconds(t);
-    const auto latest = navigator.localizer().estimate();
-    if (!latest) return;
-    navigator.onFix({(*v)[0], (*v)[1]}, time.value_or(latest->time));
-  }
-
-  void onGeometry() {
-    auto number = [&](const char* key, double fallback) {
-      const auto t = kernel.get(base, key);
-      const auto v = t ? peis::exec::parseNumbers(t->data) : std::nullopt;
-      return v && !v->empty() ? (*v)[0] : fallback;
-    };
-    const auto sonar = kernel.get(base, "Geometry.sonar");
-    const auto angles = sonar ? peis::exec::parseNumbers(sonar->data) : std::nullopt;
-    const auto speed = kernel.get(base, "Geometry.max-speed");
-    const auto limits = speed ? peis::exec::parseNumbers(speed->data) : std::nullopt;
-    navigator.setGeometry(number("Geometry.radius", 0.2), angles.value_or(std::vector<double>{}),
-                          number("Geometry.max-range", 3.0),
-                          limits && limits->size() == 2 ? (*limits)[0] : 0,
-                          limits && limits->size() == 2 ? (*limits)[1] : 0);
-  }
-};
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -201,11 +103,7 @@ int main(int argc, char** argv) {
   Settings settings;
   if (const int code = parseArgs(argc, argv, settings); code >= 0) return code;
   if (settings.base.empty()) settings.base = kernel.name() + "-base";
-  if (settings.robot.empty()) {
-    settings.robot = settings.base;
-    const auto dash = settings.robot.rfind("-base");
-    if (dash != std::string::npos && dash + 5 == settings.robot.size()) settings.robot.resize(dash);
-  }
+  if (settings.robot.empty()) settings.robot = peis::nav::robotNameOfDriver(settings.base);
   peis::Descriptor descriptor;
   try {
     descriptor = settings.descriptor.empty()
@@ -216,27 +114,11 @@ int main(int argc, char** argv) {
     return 1;
   }
   peis::Component component(kernel, "navigation", descriptor);
-  auto shell = std::make_shared<Shell>(Shell{kernel,
-                                             settings,
-                                             peis::nav::Navigator(settings.nav, {}),
-                                             0,
-                                             0,
-                                             {},
-                                             {},
-                                             {},
-                                             {},
-                                             peis::nav::PoseSource::None});
-  Shell& s = *shell;
-  s.navigator = peis::nav::Navigator(
-      settings.nav, [&s](const std::string& name) -> std::optional<peis::nav::Pose2> {
-        if (s.mapServer == 0) return std::nullopt;
-        const auto t = s.kernel.get(s.mapServer, "place." + name);
-        if (!t) return std::nullopt;
-        const auto v = peis::exec::parseNumbers(t->data);
-        if (!v || v->size() < 2) return std::nullopt;
-        return peis::nav::Pose2{(*v)[0], (*v)[1], v->size() >= 3 ? (*v)[2] : 0.0};
-      });
-  s.server = std::make_unique<peis::exec::ExecServer>(
+  std::unique_ptr<peis::exec::ExecServer> server;
+  peis::nav::RobotLink robot(
+      kernel, {settings.base, settings.mapServer, settings.robot, "navigation"}, settings.nav,
+      [&server](const peis::exec::ExecStatus& status) { server->publish(status); });
+  server = std::make_unique<peis::exec::ExecServer>(
       kernel,
       [](const peis::exec::Action& a) -> std::optional<std::string> {
         if (a.name == "Stop" && a.args.empty()) return std::nullopt;
@@ -248,42 +130,13 @@ int main(int argc, char** argv) {
               return "GoTo(X, Y[, THETA]) takes numbers, not '" + arg + "'";
         return std::nullopt;
       },
-      [&s](const peis::exec::Action& a, std::uint64_t id) { s.apply(s.navigator.onGoal(a, id)); });
-
-  component.input("position", std::chrono::seconds(2), [&s](const peis::Tuple& t) { s.onFix(t); });
-
-  peis::exec::whenPeerKnown(kernel, settings.base, [&s](peis::PeisId id) {
-    s.base = id;
-    s.log("driver " + s.settings.base + " is PEIS " + std::to_string(id));
-    s.kernel.onChange(peis::Pattern("Odometry", id),
-                      [&s](const peis::Tuple& t) { s.onOdometry(t); });
-    s.kernel.onChange(peis::Pattern("Bumper", id),
-                      [&s](const peis::Tuple& t) { s.navigator.onBumper(t.data == "1"); });
-    s.kernel.onChange(peis::Pattern("SonarRange", id), [&s](const peis::Tuple& t) {
-      if (const auto v = peis::exec::parseNumbers(t.data)) s.navigator.onSonar(*v);
-    });
-    s.kernel.onChange(peis::Pattern("Geometry.*", id),
-                      [&s](const peis::Tuple&) { s.onGeometry(); });
-    for (const char* key : {"Odometry", "Bumper", "SonarRange", "Geometry.*"})
-      s.kernel.subscribe(peis::Pattern(key, id));
-    s.onGeometry();
-  });
-  peis::exec::whenPeerKnown(kernel, settings.mapServer, [&s](peis::PeisId id) {
-    s.mapServer = id;
-    s.log("map server " + s.settings.mapServer + " is PEIS " + std::to_string(id));
-    s.kernel.onChange(peis::Pattern("map", id), [&s](const peis::Tuple& t) {
-      s.mapTuple = t;
-      s.tryMap();
-    });
-    s.kernel.onChange(peis::Pattern("map.info", id), [&s](const peis::Tuple& t) {
-      s.mapInfoTuple = t;
-      s.tryMap();
-    });
-    for (const char* key : {"map", "map.info", "place.*", "places"})
-      s.kernel.subscribe(peis::Pattern(key, id));
-  });
+      [&robot](const peis::exec::Action& a, std::uint64_t id) {
+        robot.apply(robot.navigator().onGoal(a, id));
+      });
+  component.input("position", std::chrono::seconds(2),
+                  [&robot](const peis::Tuple& t) { robot.onFix(t); });
+  robot.start();
   component.start();
   kernel.run();
-  shell->server.reset();
   return 0;
 }

@@ -2,7 +2,6 @@
 // photos and their measured brightness (photo camera), the tiny nodes'
 // sensor file (sim sensors).
 #include <catch2/catch.hpp>
-
 #include <cstdint>
 #include <fstream>
 #include <sstream>
@@ -18,12 +17,13 @@ namespace {
 
 std::string wav(std::uint32_t byteRate, std::uint32_t dataBytes, std::uint32_t declared) {
   auto le32 = [](std::uint32_t v) {
-    return std::string{char(v & 0xff), char((v >> 8) & 0xff), char((v >> 16) & 0xff), char(v >> 24)};
+    return std::string{char(v & 0xff), char((v >> 8) & 0xff), char((v >> 16) & 0xff),
+                       char(v >> 24)};
   };
   std::string fmt = std::string("\x01\x00\x01\x00", 4) + le32(byteRate / 2) + le32(byteRate) +
                     std::string("\x02\x00\x10\x00", 4);
-  return "RIFF" + le32(36 + dataBytes) + "WAVE" + "fmt " + le32(16) + fmt + "data" + le32(declared) +
-         std::string(dataBytes, '\0');
+  return "RIFF" + le32(36 + dataBytes) + "WAVE" + "fmt " + le32(16) + fmt + "data" +
+         le32(declared) + std::string(dataBytes, '\0');
 }
 
 }  // namespace
@@ -88,4 +88,44 @@ TEST_CASE("the tiny nodes' sensor file: light levels, weights, atomic writes", "
   text << in.rdbuf();
   CHECK(text.str() == "light 12\n");
   CHECK_FALSE(writeAtomically(dir.file("no/such/dir/file"), "x"));
+}
+
+#include "coverage.h"
+
+TEST_CASE("coverage lanes cover a room's free cells in alternating directions", "[unit]") {
+  peis::nav::OccupancyGrid grid(peis::nav::GridInfo{0.05, 0, 0, 60, 40});  // 3 x 2 m, no walls
+  grid.setOccupied({30, 20}, true);                                        // a post in the middle
+  const peis::nav::Costmap costmap(grid, peis::nav::InflationOptions{0.15, 0.0, 0.0, 0.0});
+  const auto room = parsePolygon("0 0 3 0 3 2 0 2");
+  REQUIRE(room);
+  const auto waypoints = coverageWaypoints(costmap, *room, 0.3);
+  REQUIRE(waypoints.size() >= 12);
+  for (const auto& p : waypoints) REQUIRE_FALSE(costmap.lethal(grid.cellOf(p)));
+  CHECK(waypoints[0].x < waypoints[1].x);  // first lane left to right
+  CHECK(waypoints[2].x > waypoints[3].x);  // second lane right to left
+  // Every free cell of the room is within a lane spacing of a lane.
+  for (int y = 0; y < 40; ++y)
+    for (int x = 0; x < 60; ++x) {
+      const auto p = grid.centreOf({x, y});
+      if (costmap.lethal({x, y})) continue;
+      double nearest = 1e9;
+      for (std::size_t i = 0; i + 1 < waypoints.size(); ++i)
+        if (waypoints[i].y == waypoints[i + 1].y)
+          nearest = std::min(nearest, std::abs(p.y - waypoints[i].y));
+      REQUIRE(nearest <= 0.3);
+    }
+  CHECK(insidePolygon(*room, {1, 1}));
+  CHECK_FALSE(insidePolygon(*room, {4, 1}));
+  CHECK_FALSE(parsePolygon("0 0 1 1"));
+  CHECK_FALSE(parsePolygon("0 0 1 1 2"));
+  CHECK(coverageWaypoints(costmap, {}, 0.3).empty());
+}
+
+TEST_CASE("push light obstacles, avoid heavy ones and ones of unknown weight", "[unit]") {
+  CHECK(decideObstacle(800, 1.0).push);
+  CHECK(decideObstacle(800, 1.0).reason == "push: 800 g <= 1000 g");
+  CHECK_FALSE(decideObstacle(2500, 1.0).push);
+  CHECK(decideObstacle(2500, 1.0).reason == "avoid: 2500 g > 1000 g");
+  CHECK_FALSE(decideObstacle(std::nullopt, 1.0).push);
+  CHECK(decideObstacle(std::nullopt, 1.0).reason == "avoid: weight unknown");
 }

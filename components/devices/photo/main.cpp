@@ -16,7 +16,7 @@
 
 namespace {
 
-const char* kUsage = R"(Usage: peis-photo-camera [OPTIONS] [--peis-* flags]
+const char* kUsage = R"usage(Usage: peis-photo-camera [OPTIONS] [--peis-* flags]
 
 Takes a photo of a region on request: ExecGoal Photo(sofa) publishes photo
 (image/png) and photo.brightness (mean grey 0..255), and ExecStatus success, or
@@ -27,7 +27,7 @@ Options:
   --min-brightness B    0..255 (default 90)
   --full-exposure LUX   lux at which a region shows its full colour (default 300)
   --help                this text
-)";
+)usage";
 
 // The colour of a furniture, object or room named `name` in the world file.
 std::optional<std::array<int, 3>> colourOf(const std::string& worldYaml, const std::string& name) {
@@ -63,16 +63,20 @@ int main(int argc, char** argv) {
     }
     const std::string value = argv[++i];
     const auto number = peis::exec::parseNumber(value);
-    if (arg == "--world") worldName = value;
-    else if (arg == "--min-brightness" && number && *number >= 0 && *number <= 255) minBrightness = *number;
-    else if (arg == "--full-exposure" && number && *number > 0) settings.fullExposureLux = *number;
+    if (arg == "--world")
+      worldName = value;
+    else if (arg == "--min-brightness" && number && *number >= 0 && *number <= 255)
+      minBrightness = *number;
+    else if (arg == "--full-exposure" && number && *number > 0)
+      settings.fullExposureLux = *number;
     else {
       std::cerr << "peis-photo-camera: bad option " << arg << " " << value << "\n";
       return 2;
     }
   }
-  peis::Component component(kernel, "photo-camera",
-                            peis::Descriptor::fromYaml(kPhotoCameraDescriptor, "photo_camera.yaml"));
+  peis::Component component(
+      kernel, "photo-camera",
+      peis::Descriptor::fromYaml(kPhotoCameraDescriptor, "photo_camera.yaml"));
   peis::PeisId world = 0;
   std::uint32_t shots = 0;
   std::unique_ptr<peis::exec::ExecServer> server;
@@ -93,8 +97,8 @@ int main(int argc, char** argv) {
         if (!lux) return failed("no light reading at '" + region + "'");
         const auto worldFile = kernel.get(world, "physics.world");
         const auto colour = worldFile ? colourOf(worldFile->data, region) : std::nullopt;
-        const cv::Mat photo = peis::devices::takePhoto(colour.value_or(std::array<int, 3>{128, 128, 128}),
-                                                       *lux, settings, ++shots);
+        const cv::Mat photo = peis::devices::takePhoto(
+            colour.value_or(std::array<int, 3>{128, 128, 128}), *lux, settings, ++shots);
         const double brightness = peis::devices::measureBrightness(photo);
         peis::WriteOptions png;
         png.mimetype = "image/png";

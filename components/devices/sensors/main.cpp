@@ -15,7 +15,7 @@
 
 namespace {
 
-const char* kUsage = R"(Usage: peis-sim-sensors [OPTIONS] [--peis-* flags]
+const char* kUsage = R"usage(Usage: peis-sim-sensors [OPTIONS] [--peis-* flags]
 
 Writes tiny nodes' sensor files (TINY_SENSOR_FILE of the host port) from the
 simulated world's physics channel.
@@ -26,7 +26,7 @@ Options:
   --weight OBJECT=FILE   weight of OBJECT (physics.object.OBJECT) into FILE
   --lux-per-level L      lux per light level 0..1000 (default 2: level 700 = 1400 lux)
   --help                 this text
-)";
+)usage";
 
 }  // namespace
 
@@ -70,21 +70,23 @@ int main(int argc, char** argv) {
   peis::exec::whenPeerKnown(kernel, worldName, [&](peis::PeisId world) {
     for (const auto& [thing, file] : lights) {
       kernel.subscribe(peis::Pattern("physics.light." + thing, world));
-      kernel.onChange(peis::Pattern("physics.light." + thing, world), [&, file = file](const peis::Tuple& t) {
-        const auto lux = peis::exec::parseNumber(t.data);
-        if (!lux) return;
-        files[file].light = peis::devices::lightLevel(*lux, luxPerLevel);
-        write(file);
-      });
+      kernel.onChange(peis::Pattern("physics.light." + thing, world),
+                      [&, file = file](const peis::Tuple& t) {
+                        const auto lux = peis::exec::parseNumber(t.data);
+                        if (!lux) return;
+                        files[file].light = peis::devices::lightLevel(*lux, luxPerLevel);
+                        write(file);
+                      });
     }
     for (const auto& [object, file] : weights) {
       kernel.subscribe(peis::Pattern("physics.object." + object, world));
-      kernel.onChange(peis::Pattern("physics.object." + object, world), [&, file = file](const peis::Tuple& t) {
-        const auto grams = peis::devices::weightGrams(t.data);
-        if (!grams) return;
-        files[file].weight = *grams;
-        write(file);
-      });
+      kernel.onChange(peis::Pattern("physics.object." + object, world),
+                      [&, file = file](const peis::Tuple& t) {
+                        const auto grams = peis::devices::weightGrams(t.data);
+                        if (!grams) return;
+                        files[file].weight = *grams;
+                        write(file);
+                      });
     }
   });
   component.start();

@@ -21,7 +21,7 @@ extern char** environ;
 
 namespace {
 
-const char* kUsage = R"(Usage: peis-talk [OPTIONS] [--peis-* flags]
+const char* kUsage = R"usage(Usage: peis-talk [OPTIONS] [--peis-* flags]
 
 Says phrases: an ExecGoal Talk(wakeup) becomes speech in a WAV file (espeak-ng),
 the tuple speech = "FILE SECONDS WORDS", and TalkCommand = WORDS on the driver.
@@ -33,7 +33,7 @@ Options:
   --phrase KEY=TEXT  what Talk(KEY) says; repeatable (wakeup is built in)
   --espeak PATH      the espeak-ng program (default: espeak-ng on PATH)
   --help             this text
-)";
+)usage";
 
 // Runs espeak-ng; returns its exit status or -1 if it could not start.
 int speak(const std::string& program, const std::string& voice, const std::string& file,
@@ -66,10 +66,14 @@ int main(int argc, char** argv) {
       return 2;
     }
     const std::string value = argv[++i];
-    if (arg == "--base") base = value;
-    else if (arg == "--out-dir") outDir = value;
-    else if (arg == "--voice") voice = value;
-    else if (arg == "--espeak") espeak = value;
+    if (arg == "--base")
+      base = value;
+    else if (arg == "--out-dir")
+      outDir = value;
+    else if (arg == "--voice")
+      voice = value;
+    else if (arg == "--espeak")
+      espeak = value;
     else if (arg == "--phrase") {
       try {
         phrases.add(value);
@@ -88,7 +92,8 @@ int main(int argc, char** argv) {
     std::cerr << "peis-talk: cannot use --out-dir " << outDir << "\n";
     return 1;
   }
-  peis::Component component(kernel, "talk", peis::Descriptor::fromYaml(kTalkDescriptor, "talk.yaml"));
+  peis::Component component(kernel, "talk",
+                            peis::Descriptor::fromYaml(kTalkDescriptor, "talk.yaml"));
   std::unique_ptr<peis::exec::ExecServer> server;
   std::vector<std::thread> workers;  // one per utterance; joined at exit
   std::uint64_t count = 0;
@@ -111,15 +116,18 @@ int main(int argc, char** argv) {
           std::stringstream bytes;
           bytes << in.rdbuf();
           std::string problem;
-          const auto seconds = code == 0 ? peis::devices::wavSeconds(bytes.str(), &problem) : std::nullopt;
+          const auto seconds =
+              code == 0 ? peis::devices::wavSeconds(bytes.str(), &problem) : std::nullopt;
           kernel.post([&, id, action, words, file, code, seconds, problem] {
             if (code != 0) {
               server->publish({peis::exec::ExecState::Failed, id, action,
-                               code < 0 ? "cannot run " + espeak : espeak + " exited with " + std::to_string(code)});
+                               code < 0 ? "cannot run " + espeak
+                                        : espeak + " exited with " + std::to_string(code)});
               return;
             }
             if (!seconds) {
-              server->publish({peis::exec::ExecState::Failed, id, action, "bad WAV " + file + ": " + problem});
+              server->publish(
+                  {peis::exec::ExecState::Failed, id, action, "bad WAV " + file + ": " + problem});
               return;
             }
             char text[64];

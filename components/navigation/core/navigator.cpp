@@ -220,7 +220,7 @@ NavOutput Navigator::onOdometry(const Pose2& odometry, double time) {
       }
       break;
     case NavState::Following: {
-      if (bumper_) {
+      if (bumper_ && !push_) {
         if (++replans_ > options_.maxReplans) {
           finish(out, exec::ExecState::Failed, "blocked");
           break;
@@ -236,7 +236,7 @@ NavOutput Navigator::onOdometry(const Pose2& odometry, double time) {
         out.command = VelocityCommand{-options_.backOffSpeed, 0};
         break;
       }
-      if (sonarBlocksPath(pose, out)) {
+      if (!push_ && sonarBlocksPath(pose, out)) {
         if (++replans_ > options_.maxReplans) {
           finish(out, exec::ExecState::Failed, "blocked");
           break;

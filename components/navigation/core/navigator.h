@@ -81,6 +81,10 @@ class Navigator {
   void onFix(Point2 position, double time) { localizer_.onFix(position, time); }
   void onBumper(bool pressed) { bumper_ = pressed; }
   void onSonar(const std::vector<double>& ranges) { sonar_ = ranges; }
+  // Push through obstacles met on the way (a light parcel) instead of
+  // marking them and going around: bumper and sonar are then ignored.
+  void setPushObstacles(bool push) { push_ = push; }
+  bool pushObstacles() const { return push_; }
 
   NavState state() const { return state_; }
   const Localizer& localizer() const { return localizer_; }
@@ -116,6 +120,7 @@ class Navigator {
   std::optional<Goal> goal_;
   int replans_ = 0;
   bool bumper_ = false;
+  bool push_ = false;
   std::vector<double> sonar_;
   double backOffUntil_ = 0;
   double lastTime_ = 0;
