@@ -89,7 +89,7 @@ TEST_CASE("navigation's bad input over the network: refused goals, no path, a re
           "[integration]") {
   Home home("nav-bad");
   home.start(programPath("peis-sim-world"), {"--speed", "2"});
-  home.start(programPath("peis-navigation"), {"--peis-name", "Emil", "--base", "Emil-base"});
+  auto& navigation = home.start(programPath("peis-navigation"), {"--peis-name", "Emil", "--base", "Emil-base"});
   const peis::PeisId emil = home.await("Emil");
   REQUIRE(emil != 0);
   REQUIRE(home.await("world") != 0);
@@ -122,8 +122,9 @@ TEST_CASE("navigation's bad input over the network: refused goals, no path, a re
     const auto s = statusOf(home, emil);
     return s && s->goalId == first.seqno;
   }));
-  const auto second = home.observer->set(emil, "ExecGoal", "GoTo(living-room)");
+  const auto second = home.observer->set(emil, "ExecGoal", "GoTo(bedroom-door)");
   status = awaitEnd(home, emil, second.seqno, 120s);
+  INFO(navigation.describe());
   REQUIRE(status);
   CHECK(status->state == peis::exec::ExecState::Success);
 }
