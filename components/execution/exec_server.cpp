@@ -78,8 +78,9 @@ namespace {
 // One wait for a peer: held only by its pending timer, so it goes away once
 // the peer is found.
 struct PeerWait : std::enable_shared_from_this<PeerWait> {
-  PeerWait(Kernel& k, std::string n, std::function<void(PeisId)> t)
-      : kernel(k), name(std::move(n)), then(std::move(t)) {}
+  PeerWait(Kernel& k, std::string n, std::function<void(std::optional<PeisId>)> t,
+           std::optional<std::chrono::steady_clock::time_point> d)
+      : kernel(k), name(std::move(n)), then(std::move(t)), deadline(d) {}
   void attempt() {
     try {
       const PeisId id = kernel.resolveOwner(name);
@@ -87,17 +88,28 @@ struct PeerWait : std::enable_shared_from_this<PeerWait> {
       return;
     } catch (const Error&) {
     }
+    if (deadline && std::chrono::steady_clock::now() >= *deadline) return then(std::nullopt);
     kernel.after(std::chrono::milliseconds(100), [self = shared_from_this()] { self->attempt(); });
   }
   Kernel& kernel;
   std::string name;
-  std::function<void(PeisId)> then;
+  std::function<void(std::optional<PeisId>)> then;
+  std::optional<std::chrono::steady_clock::time_point> deadline;
 };
 
 }  // namespace
 
 void whenPeerKnown(Kernel& kernel, const std::string& name, std::function<void(PeisId)> then) {
-  auto wait = std::make_shared<PeerWait>(kernel, name, std::move(then));
+  auto wait = std::make_shared<PeerWait>(
+      kernel, name, [then = std::move(then)](std::optional<PeisId> id) { then(*id); },
+      std::nullopt);
+  kernel.post([wait] { wait->attempt(); });
+}
+
+void resolvePeer(Kernel& kernel, const std::string& name, std::chrono::milliseconds timeout,
+                 std::function<void(std::optional<PeisId>)> then) {
+  auto wait = std::make_shared<PeerWait>(kernel, name, std::move(then),
+                                         std::chrono::steady_clock::now() + timeout);
   kernel.post([wait] { wait->attempt(); });
 }
 

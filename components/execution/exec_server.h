@@ -51,5 +51,9 @@ std::optional<std::vector<double>> parseNumbers(std::string_view text);
 // Calls `then(id)` on the kernel thread once a PEIS named `name` (or with
 // that id) is known, retrying every 100 ms.
 void whenPeerKnown(Kernel& kernel, const std::string& name, std::function<void(PeisId)> then);
+// The same with a deadline: `then(id)` once known, or `then(nothing)` after
+// `timeout` (a PEIS that has not joined the ecology yet gets that long).
+void resolvePeer(Kernel& kernel, const std::string& name, std::chrono::milliseconds timeout,
+                 std::function<void(std::optional<PeisId>)> then);
 
 }  // namespace peis::exec

@@ -3,10 +3,13 @@
 
 #include <memory>
 
+#include "execution/exec_server.h"
+
 namespace peis::executor {
 
-StaticConfigurator::StaticConfigurator(Kernel& kernel, std::vector<StaticLink> links)
-    : kernel_(kernel) {
+StaticConfigurator::StaticConfigurator(Kernel& kernel, std::vector<StaticLink> links,
+                                       std::chrono::milliseconds peerWait)
+    : kernel_(kernel), peerWait_(peerWait) {
   for (auto& link : links) links_[link.information] = std::move(link);
 }
 
@@ -33,20 +36,26 @@ void StaticConfigurator::post(const std::vector<std::string>& needs, Done done) 
       finishOne("no producer of " + parts->information + " in the static configuration (--link)");
       continue;
     }
-    PeisId consumer = 0, producer = 0;
-    try {
-      consumer = kernel_.resolveOwner(parts->consumer);
-      producer = kernel_.resolveOwner(link->second.producer);
-    } catch (const Error& e) {
-      finishOne(e.what());
-      continue;
-    }
-    WriteOptions options;
-    options.mimetype = kMetaMimetype;
-    kernel_.setAsync(consumer, parts->key, fullName(producer, link->second.key), options,
-                     [finishOne](const std::optional<Error>& error, std::uint64_t) {
-                       finishOne(error ? std::optional<std::string>(error->what()) : std::nullopt);
-                     });
+    const StaticLink producer = link->second;
+    const NeedParts consumer = *parts;
+    exec::resolvePeer(
+        kernel_, consumer.consumer, peerWait_,
+        [this, consumer, producer, finishOne](std::optional<PeisId> consumerId) {
+          if (!consumerId) return finishOne("no PEIS named '" + consumer.consumer + "' joined");
+          exec::resolvePeer(
+              kernel_, producer.producer, peerWait_,
+              [this, consumer, producer, finishOne, consumerId](std::optional<PeisId> producerId) {
+                if (!producerId)
+                  return finishOne("no PEIS named '" + producer.producer + "' joined");
+                WriteOptions options;
+                options.mimetype = kMetaMimetype;
+                kernel_.setAsync(
+                    *consumerId, consumer.key, fullName(*producerId, producer.key), options,
+                    [finishOne](const std::optional<Error>& error, std::uint64_t) {
+                      finishOne(error ? std::optional<std::string>(error->what()) : std::nullopt);
+                    });
+              });
+        });
   }
 }
 

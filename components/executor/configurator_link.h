@@ -11,13 +11,13 @@
 // implementation replaces it once docs/configuration.md defines the goals.
 #pragma once
 
+#include <peis/kernel.h>
+
 #include <functional>
 #include <map>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <peis/kernel.h>
 
 #include "plan_text.h"
 
@@ -34,13 +34,16 @@ class ConfiguratorLink {
 
 class StaticConfigurator : public ConfiguratorLink {
  public:
-  StaticConfigurator(Kernel& kernel, std::vector<StaticLink> links);
+  // A consumer or producer PEIS not known yet is waited for up to `peerWait`.
+  StaticConfigurator(Kernel& kernel, std::vector<StaticLink> links,
+                     std::chrono::milliseconds peerWait = std::chrono::seconds(10));
   void post(const std::vector<std::string>& needs, Done done) override;
   void withdraw(const std::vector<std::string>& needs) override;
 
  private:
   Kernel& kernel_;
   std::map<std::string, StaticLink> links_;
+  std::chrono::milliseconds peerWait_;
 };
 
 }  // namespace peis::executor

@@ -173,20 +173,20 @@ struct Shell {
         configurator->withdraw(c.needs);
         break;
       case Command::Kind::SendGoal: {
-        peis::PeisId id = 0;
-        try {
-          id = kernel.resolveOwner(c.dispatch.peis);
-        } catch (const peis::Error& e) {
-          const std::string why = e.what();
-          kernel.post([this, why] { apply(runner.onGoalRefused(why)); });
-          break;
-        }
-        watch(id);
-        log("ExecGoal " + c.dispatch.peis + " <- " + c.dispatch.goal);
-        kernel.setAsync(
-            id, peis::exec::kExecGoal, c.dispatch.goal, {},
-            [this](const std::optional<peis::Error>& error, std::uint64_t seqno) {
-              apply(error ? runner.onGoalRefused(error->what()) : runner.onGoalAccepted(seqno));
+        // A PEIS that has not joined yet gets a while (a plan may start first).
+        const auto dispatch = c.dispatch;
+        peis::exec::resolvePeer(
+            kernel, dispatch.peis, std::chrono::seconds(10),
+            [this, dispatch](std::optional<peis::PeisId> id) {
+              if (!id)
+                return apply(runner.onGoalRefused("no PEIS named '" + dispatch.peis + "' joined"));
+              watch(*id);
+              log("ExecGoal " + dispatch.peis + " <- " + dispatch.goal);
+              kernel.setAsync(*id, peis::exec::kExecGoal, dispatch.goal, {},
+                              [this](const std::optional<peis::Error>& error, std::uint64_t seqno) {
+                                apply(error ? runner.onGoalRefused(error->what())
+                                            : runner.onGoalAccepted(seqno));
+                              });
             });
         break;
       }
