@@ -203,10 +203,9 @@ int roundtrip(int argc, char** argv) {
   }
   auto drainSniffer = [&](std::size_t& frames, std::size_t& bytes) {
     if (!sniffing) return;
-    tiny_hal hal = host_medium_hal(&sniffer);
     std::uint8_t buf[TINY_FRAME_MAX + 1];
     int n;
-    while ((n = hal.recv(hal.ctx, buf, sizeof buf)) > 0) {
+    while ((n = host_medium_recv(&sniffer, buf, sizeof buf)) > 0) {
       ++frames;
       bytes += static_cast<std::size_t>(n);
     }

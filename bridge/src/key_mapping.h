@@ -8,7 +8,7 @@
 #include <string_view>
 
 #include "key_registry.h"
-#include "tiny_kernel.h"
+#include "tiny_tuple.h"
 
 namespace peis::bridge {
 

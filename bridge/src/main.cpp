@@ -10,6 +10,7 @@
 #include "peis/error.h"
 #include "peis/options.h"
 #include "tiny_bridge.h"
+#include "tiny_timing.h"
 
 namespace {
 
@@ -19,27 +20,32 @@ void onSignal(int) {
   if (running != nullptr) running->stop();
 }
 
-const char* kUsage =
-    "Usage: peis-tinybridge --link LINK [--keys SEED.yaml] [--registry FILE] [options]\n"
-    "\n"
-    "A full PEIS that makes the tiny nodes on one radio ordinary PEIS of the ecology:\n"
-    "each node gets a proxy PEIS with its own id; full PEIS read, set, watch and\n"
-    "subscribe to its tuples, and its subscriptions to full PEIS tuples are served.\n"
-    "\n"
-    "  --link LINK          the radio: medium:PORT[:SLOTS] (the host port's simulated\n"
-    "                       medium on 127.0.0.1), unix:PATH (a serial line on a UNIX\n"
-    "                       socket, e.g. an emulated MCU's UART) or /dev/DEVICE[:BAUD]\n"
-    "  --keys FILE          YAML seed of the key registry (keys: NAME: INDEX,\n"
-    "                       nodes: ID: NAME); applied at every start\n"
-    "  --registry FILE      the SQLite key registry (default tinybridge-keys.sqlite);\n"
-    "                       an index never changes once given\n"
-    "  --tiny-id N          the bridge's node id on the radio (default 65534)\n"
-    "  --node-timeout-ms N  a node not heard for this long leaves (default 5000)\n"
-    "  --write-timeout-ms N a write a node did not confirm by then fails (default 3000)\n"
-    "  --help               this text\n"
-    "\n"
-    "Environment: TINY_LOSS, TINY_DUP, TINY_DELAY_MS, TINY_JITTER_MS shape the\n"
-    "simulated medium as for the nodes; PEIS_LOG=quiet|warn|info|debug.\n";
+std::string usage() {
+  return "Usage: peis-tinybridge --link LINK [--keys SEED.yaml] [--registry FILE] [options]\n"
+         "\n"
+         "A full PEIS that makes the tiny nodes on one radio ordinary PEIS of the ecology:\n"
+         "each node gets a proxy PEIS with its own id; full PEIS read, set, watch and\n"
+         "subscribe to its tuples, and its subscriptions to full PEIS tuples are served.\n"
+         "\n"
+         "  --link LINK          the radio: medium:PORT[:SLOTS] (the simulated medium\n"
+         "                       on 127.0.0.1, tiny/medium), unix:PATH (a serial line on a UNIX\n"
+         "                       socket, e.g. an emulated MCU's UART) or /dev/DEVICE[:BAUD]\n"
+         "  --keys FILE          YAML seed of the key registry (keys: NAME: INDEX,\n"
+         "                       nodes: ID: NAME); applied at every start\n"
+         "  --registry FILE      the SQLite key registry (default tinybridge-keys.sqlite);\n"
+         "                       an index never changes once given\n"
+         "  --tiny-id N          the bridge's node id on the radio (default 65534)\n"
+         "  --node-timeout-ms N  a node not heard for this long leaves (default " +
+         std::to_string(TINY_NODE_TIMEOUT_MS) +
+         ")\n"
+         "  --write-timeout-ms N a write a node did not confirm by then fails (default " +
+         std::to_string(TINY_WRITE_DEADLINE_MS) +
+         ")\n"
+         "  --help               this text\n"
+         "\n"
+         "Environment: TINY_LOSS, TINY_DUP, TINY_DELAY_MS, TINY_JITTER_MS shape the\n"
+         "simulated medium as for the nodes; PEIS_LOG=quiet|warn|info|debug.\n";
+}
 
 bool number(const char* text, unsigned long max, unsigned long* out) {
   if (text == nullptr || *text == '\0') return false;
@@ -65,7 +71,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (config.peis.help) {
-    std::cout << kUsage << "\nPEIS options:\n" << peis::Options::helpText();
+    std::cout << usage() << "\nPEIS options:\n" << peis::Options::helpText();
     return 0;
   }
   for (int i = 1; i < argc; ++i) {

@@ -11,8 +11,8 @@
 #include <cstring>
 
 #include "host_medium.h"
-#include "log.h"
 #include "peis/error.h"
+#include "peis/log.h"
 #include "tiny_serial.h"
 
 namespace peis::bridge {
@@ -37,13 +37,12 @@ class MediumLink final : public RadioLink {
                   "cannot join the tiny medium on 127.0.0.1:" + std::to_string(config.base_port) +
                       ".." + std::to_string(config.base_port + config.slots - 1) + ": " +
                       std::strerror(errno));
-    hal_ = host_medium_hal(&medium_);
   }
   ~MediumLink() override { host_medium_close(&medium_); }
   int fd() const override { return medium_.fd; }
   bool send(const Frame& frame) override {
     if (frame.empty() || frame.size() > TINY_FRAME_MAX ||
-        hal_.send(hal_.ctx, frame.data(), static_cast<std::uint8_t>(frame.size())) != 0) {
+        host_medium_send(&medium_, frame.data(), static_cast<std::uint8_t>(frame.size())) != 0) {
       ++stats_.sendErrors;
       return false;
     }
@@ -54,7 +53,7 @@ class MediumLink final : public RadioLink {
     std::vector<Frame> out;
     for (int i = 0; i < 64; ++i) {
       std::uint8_t buf[TINY_FRAME_MAX + 1];
-      const int n = hal_.recv(hal_.ctx, buf, sizeof buf);
+      const int n = host_medium_recv(&medium_, buf, sizeof buf);
       if (n <= 0) break;
       // A datagram over 100 bytes is kept whole enough to be dropped (and
       // counted) by the decoder as too long.
@@ -71,7 +70,6 @@ class MediumLink final : public RadioLink {
 
  private:
   host_medium medium_{};
-  tiny_hal hal_{};
   LinkStats stats_;
 };
 

@@ -1,6 +1,7 @@
 // The bridge's way onto the tiny nodes' radio (its base station):
-//   - MediumLink: the host port's simulated 802.15.4-like medium (UDP on
-//     127.0.0.1, tiny/ports/host/host_medium.h), as one more node on it;
+//   - MediumLink: the simulated 802.15.4-like medium (UDP on 127.0.0.1,
+//     tiny/medium/host_medium.h) that the host port's nodes are on, as one
+//     more node on it;
 //   - SerialLink: a serial line carrying frames in the tiny serial framing
 //     (tiny_serial.h): a UNIX socket (an emulated MCU's UART, or an XBee
 //     gateway) or a tty / pty device. A lost connection is re-opened.

@@ -17,12 +17,13 @@
 
 #include "key_mapping.h"
 #include "key_registry.h"
-#include "log.h"
 #include "peis/error.h"
 #include "peis/key.h"
+#include "peis/log.h"
 #include "peis/pattern.h"
 #include "radio_link.h"
-#include "tiny_kernel.h"
+#include "tiny_timing.h"
+#include "tiny_tuple.h"
 
 namespace peis::bridge {
 namespace {

@@ -7,9 +7,9 @@
 //     to every key of every node, so the proxy follows the node.
 //   - A full PEIS's set of a tiny node's tuple reaches the proxy, whose
 //     write gate holds it, sends a WRITE frame to the node (again every
-//     250 ms) and accepts the write only when the node's own tuple frame
-//     shows the value: the writer's set returns once the node has it, or
-//     fails (Unreachable) when the node did not confirm within 3 s.
+//     writeRetry) and accepts the write only when the node's own tuple
+//     frame shows the value: the writer's set returns once the node has it,
+//     or fails (Unreachable) when the node did not confirm by writeDeadline.
 //   - A tiny node's subscription to a full PEIS's tuple (Lamp -> LightValue
 //     of PEIS 6890) is served by the node's proxy: it subscribes in the
 //     ecology and sends every change as a tiny tuple frame to the node, and
@@ -28,6 +28,7 @@
 
 #include "peis/kernel.h"
 #include "peis/options.h"
+#include "tiny_timing.h"
 
 namespace peis::bridge {
 
@@ -37,9 +38,10 @@ struct BridgeConfig {
   std::string registryPath;       // SQLite file of the key registry
   std::string seedPath;           // YAML seed of the registry ("" = none)
   std::uint16_t tinyId = 0xFFFE;  // the bridge's node id on the radio
-  std::chrono::milliseconds nodeTimeout{5000};
-  std::chrono::milliseconds writeRetry{250};
-  std::chrono::milliseconds writeDeadline{3000};
+  // The tiny protocol's timings (tiny_timing.h) unless told otherwise.
+  std::chrono::milliseconds nodeTimeout{TINY_NODE_TIMEOUT_MS};
+  std::chrono::milliseconds writeRetry{TINY_WRITE_RETRY_MS};
+  std::chrono::milliseconds writeDeadline{TINY_WRITE_DEADLINE_MS};
 };
 
 // Counters (tinybridge.stats shows them too).

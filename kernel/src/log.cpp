@@ -1,4 +1,4 @@
-// stderr logger; see log.h.
+// stderr logger; see peis/log.h.
 #include "log.h"
 
 #include <cstdio>

@@ -1,21 +1,5 @@
-// Minimal logging to stderr: one line per event, prefixed with the time,
-// the level and the PEIS. PEIS_LOG=quiet|warn|info|debug picks how much.
+// The kernel's log is public (programs on the kernel log alike): see
+// peis/log.h. Kept so the kernel's sources include "log.h" as before.
 #pragma once
 
-#include <string_view>
-
-#include "peis/types.h"
-
-namespace peis::log {
-
-enum class Level { Error = 0, Warn = 1, Info = 2, Debug = 3 };
-
-bool enabled(Level level);
-void line(Level level, PeisId peis, std::string_view message);
-
-inline void error(PeisId peis, std::string_view m) { line(Level::Error, peis, m); }
-inline void warn(PeisId peis, std::string_view m) { line(Level::Warn, peis, m); }
-inline void info(PeisId peis, std::string_view m) { line(Level::Info, peis, m); }
-inline void debug(PeisId peis, std::string_view m) { line(Level::Debug, peis, m); }
-
-}  // namespace peis::log
+#include "peis/log.h"

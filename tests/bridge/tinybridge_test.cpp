@@ -1,5 +1,5 @@
 // The tinybridge with real tiny node processes on the simulated radio
-// (tiny/ports/host: UDP on 127.0.0.1) and full PEIS over TCP: the seed's
+// (tiny/medium: UDP on 127.0.0.1) and full PEIS over TCP: the seed's
 // experiment (tiny-peis-kernel.txt section V) checked byte for byte on the
 // air by a sniffer that joins the medium, then the tiny nodes used as
 // ordinary PEIS (ls, get, set, subscriptions, a new key) and a node that
@@ -50,18 +50,17 @@ class Sniffer {
     config.slots = 8;
     if (host_medium_open(&medium_, &config) != 0)
       throw std::runtime_error("cannot join the medium");
-    hal_ = host_medium_hal(&medium_);
   }
   ~Sniffer() { host_medium_close(&medium_); }
   void drain() {
     std::uint8_t buf[TINY_FRAME_MAX + 1];
     int n;
-    while ((n = hal_.recv(hal_.ctx, buf, sizeof buf)) > 0)
+    while ((n = host_medium_recv(&medium_, buf, sizeof buf)) > 0)
       frames_.emplace_back(buf, buf + std::min<int>(n, sizeof buf));
   }
   // Puts raw bytes on the air (to every other node).
   void send(const Bytes& bytes) {
-    hal_.send(hal_.ctx, bytes.data(), static_cast<std::uint8_t>(bytes.size()));
+    host_medium_send(&medium_, bytes.data(), static_cast<std::uint8_t>(bytes.size()));
     host_medium_flush(&medium_, 0);
   }
   // The first frame heard that `match` accepts.
@@ -74,7 +73,6 @@ class Sniffer {
 
  private:
   host_medium medium_{};
-  tiny_hal hal_{};
   std::vector<Bytes> frames_;
 };
 

@@ -27,13 +27,14 @@
 #ifndef TINY_KERNEL_H
 #define TINY_KERNEL_H
 
+#include "tiny_timing.h"
 #include "tiny_tuple.h"
 
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-/* ---- compile-time sizes and timings (override with -D) ---------------- */
+/* ---- compile-time sizes (override with -D); timings: tiny_timing.h ---- */
 #ifndef TINY_MAX_TUPLES
 #define TINY_MAX_TUPLES 10 /* own tuples */
 #endif
@@ -49,18 +50,6 @@ extern "C" {
 #ifndef TINY_MAX_NEIGHBORS
 #define TINY_MAX_NEIGHBORS 8
 #endif
-#ifndef TINY_BEACON_INTERVAL_MS
-#define TINY_BEACON_INTERVAL_MS 1000u
-#endif
-#ifndef TINY_RESUB_INTERVAL_MS
-#define TINY_RESUB_INTERVAL_MS 1000u
-#endif
-#ifndef TINY_SUBSCRIBER_TIMEOUT_MS
-#define TINY_SUBSCRIBER_TIMEOUT_MS (4u * TINY_RESUB_INTERVAL_MS)
-#endif
-#ifndef TINY_NEIGHBOR_TIMEOUT_MS
-#define TINY_NEIGHBOR_TIMEOUT_MS (4u * TINY_BEACON_INTERVAL_MS)
-#endif
 #ifndef TINY_MAX_RX_PER_POLL
 #define TINY_MAX_RX_PER_POLL 8 /* frames taken from the radio per poll */
 #endif
@@ -70,8 +59,6 @@ TINY_STATIC_ASSERT(TINY_MAX_CACHE >= 1 && TINY_MAX_CACHE <= 255, "TINY_MAX_CACHE
 TINY_STATIC_ASSERT(TINY_MAX_SUBS >= 1 && TINY_MAX_SUBS <= 127, "TINY_MAX_SUBS 1..127");
 TINY_STATIC_ASSERT(TINY_MAX_SUBSCRIBERS >= 1 && TINY_MAX_SUBSCRIBERS <= 255,
                    "TINY_MAX_SUBSCRIBERS 1..255");
-TINY_STATIC_ASSERT(TINY_SUBSCRIBER_TIMEOUT_MS > TINY_RESUB_INTERVAL_MS,
-                   "subscribers must outlive one renewal interval");
 
 /* ---- the HAL: a few function pointers (cf. zenoh-pico's link struct) --- */
 typedef struct tiny_hal {

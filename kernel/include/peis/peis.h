@@ -6,6 +6,7 @@
 #include "peis/error.h"
 #include "peis/kernel.h"
 #include "peis/key.h"
+#include "peis/log.h"
 #include "peis/options.h"
 #include "peis/pattern.h"
 #include "peis/tuple.h"

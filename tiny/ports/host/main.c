@@ -23,6 +23,7 @@
 
 #include "host_medium.h"
 #include "tiny_app.h"
+#include "tiny_kernel.h"
 
 static volatile sig_atomic_t stop_requested;
 static uint32_t start_ms;
@@ -114,6 +115,18 @@ static int parse_arg(const char *v, unsigned long max, unsigned long *out) {
 static host_medium medium;
 static tiny_kernel kernel;
 
+/* The tiny kernel's HAL on the simulated medium (ctx = the medium). */
+static int hal_send(void *ctx, const uint8_t *frame, uint8_t len) {
+  return host_medium_send((host_medium *)ctx, frame, len);
+}
+static int hal_recv(void *ctx, uint8_t *buf, uint8_t cap) {
+  return host_medium_recv((host_medium *)ctx, buf, cap);
+}
+static uint32_t hal_now(void *ctx) {
+  (void)ctx;
+  return host_now_ms();
+}
+
 int main(int argc, char **argv) {
   host_medium_config cfg;
   tiny_hal hal;
@@ -147,7 +160,10 @@ int main(int argc, char **argv) {
             cfg.base_port + cfg.slots - 1, strerror(errno));
     return 1;
   }
-  hal = host_medium_hal(&medium);
+  hal.ctx = &medium;
+  hal.send = hal_send;
+  hal.recv = hal_recv;
+  hal.now_ms = hal_now;
   start_ms = host_now_ms();
   tiny_init(&kernel, (uint16_t)id, &hal);
   fprintf(stderr, "tiny %lu on 127.0.0.1:%u\n", id, cfg.base_port + medium.slot);

@@ -1,4 +1,4 @@
-/* The simulated broadcast medium of the host port: see host_medium.h. */
+/* The simulated radio medium: see host_medium.h. */
 #define _POSIX_C_SOURCE 200809L
 #include "host_medium.h"
 
@@ -113,8 +113,7 @@ static void enqueue(host_medium *m, unsigned port, const uint8_t *buf, uint8_t l
   ++m->overflow; /* a full queue loses the frame, as a busy radio would */
 }
 
-static int hal_send(void *ctx, const uint8_t *frame, uint8_t len) {
-  host_medium *m = (host_medium *)ctx;
+int host_medium_send(host_medium *m, const uint8_t *frame, uint8_t len) {
   unsigned i;
   if (len > TINY_FRAME_MAX) return -1;
   for (i = 0; i < m->cfg.slots; ++i) {
@@ -151,8 +150,7 @@ int host_medium_flush(host_medium *m, int idle_ms) {
   return next;
 }
 
-static int hal_recv(void *ctx, uint8_t *buf, uint8_t cap) {
-  host_medium *m = (host_medium *)ctx;
+int host_medium_recv(host_medium *m, uint8_t *buf, uint8_t cap) {
   ssize_t n;
   (void)host_medium_flush(m, 0);
   /* MSG_TRUNC: the real size of a datagram longer than cap, so the kernel
@@ -160,18 +158,4 @@ static int hal_recv(void *ctx, uint8_t *buf, uint8_t cap) {
   n = recv(m->fd, buf, cap, MSG_TRUNC);
   if (n < 0) return 0;
   return n > 0x7FFF ? 0x7FFF : (int)n;
-}
-
-static uint32_t hal_now(void *ctx) {
-  (void)ctx;
-  return host_now_ms();
-}
-
-tiny_hal host_medium_hal(host_medium *m) {
-  tiny_hal h;
-  h.ctx = m;
-  h.send = hal_send;
-  h.recv = hal_recv;
-  h.now_ms = hal_now;
-  return h;
 }

@@ -1,16 +1,20 @@
-/* The host port's radio: an 802.15.4-like broadcast medium simulated over
- * UDP on 127.0.0.1. The medium is a range of `slots` ports from `base_port`;
- * each node binds the first free one and sends every frame to all the
- * others (so any number of processes up to `slots` share one medium, and
- * separate tests use separate bases). Loss, duplication and delay (with
- * jitter) are applied on the sending side, per frame and per receiver.
+/* The simulated radio: an 802.15.4-like broadcast medium over UDP on
+ * 127.0.0.1, joined by the host port's device programs, by the tinybridge
+ * (as its base station) and by tests. It carries frames; it knows nothing of
+ * the tiny kernel (the host port binds it to the kernel's HAL).
+ *
+ * The medium is a range of `slots` ports from `base_port`; each node binds
+ * the first free one and sends every frame to all the others (so any number
+ * of processes up to `slots` share one medium, and separate tests use
+ * separate bases). Loss, duplication and delay (with jitter) are applied on
+ * the sending side, per frame and per receiver.
  */
 #ifndef TINY_HOST_MEDIUM_H
 #define TINY_HOST_MEDIUM_H
 
 #include <stdint.h>
 
-#include "tiny_kernel.h"
+#include "tiny_tuple.h" /* TINY_FRAME_MAX */
 
 #ifdef __cplusplus
 extern "C" {
@@ -49,8 +53,13 @@ void host_medium_config_from_env(host_medium_config *cfg);
 /* Opens the medium: binds the first free slot. Returns 0, or -1 (errno). */
 int host_medium_open(host_medium *m, const host_medium_config *cfg);
 void host_medium_close(host_medium *m);
-/* A HAL on this medium (ctx = m) with a monotonic millisecond clock. */
-tiny_hal host_medium_hal(host_medium *m);
+/* Sends one frame (len <= TINY_FRAME_MAX) to every other slot, with the
+ * configured loss, duplication and delay. Returns 0, or -1 if too long. */
+int host_medium_send(host_medium *m, const uint8_t *frame, uint8_t len);
+/* Takes one received frame without blocking (sending the delayed frames
+ * that are due first). Returns its length, which may exceed cap (the frame
+ * was cut: the caller drops it as too long), or 0 if none. */
+int host_medium_recv(host_medium *m, uint8_t *buf, uint8_t cap);
 /* Milliseconds of CLOCK_MONOTONIC, wrapping. */
 uint32_t host_now_ms(void);
 /* Sends the delayed frames that are due; returns ms until the next one is
