@@ -1,6 +1,7 @@
 // A simulated ceiling camera's PEIS (camera_node.h).
 #include "camera_node.h"
 
+#include <cmath>
 #include <iostream>
 
 #include "camera/render_view.h"
@@ -120,9 +121,11 @@ void CameraNode::renderLoop() {
       bool due = false;
       {
         std::lock_guard again(mu_);
-        // Images at the camera's rate of simulated time.
-        due = time + 1e-6 >= lastRender_ + 1.0 / spec.rateHz || time < lastRender_;
-        if (due) lastRender_ = time;
+        // Images at the camera's rate of simulated time, on a grid of
+        // multiples of 1/rate, so cameras of one rate show the same moments.
+        const auto slot = static_cast<std::int64_t>(std::floor(time * spec.rateHz + 1e-6));
+        due = slot != lastSlot_;
+        if (due) lastSlot_ = slot;
       }
       if (due)
         image = encodeImage(renderView(*world, *light, scene, spec, config_.seed * 1000003u + static_cast<std::uint64_t>(time * 1000)),

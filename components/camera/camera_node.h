@@ -59,7 +59,7 @@ class CameraNode {
   std::shared_ptr<const sim::LightModel> light_;
   std::optional<CameraSpec> spec_;
   std::optional<Tuple> pendingScene_;
-  double lastRender_ = -1e9;
+  std::int64_t lastSlot_ = -1;  // the last multiple of 1/rate rendered
   std::uint64_t frames_ = 0;
   std::thread worker_;
 };

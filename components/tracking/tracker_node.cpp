@@ -20,6 +20,13 @@ std::string formatPosition(const Fix& fix) {
 
 namespace {
 
+// The calibration beside an image: "image" -> "calibration",
+// "left.image" -> "left.calibration".
+std::string calibrationKeyOf(const std::string& imageKey) {
+  const auto dot = imageKey.rfind('.');
+  return dot == std::string::npos ? "calibration" : imageKey.substr(0, dot) + ".calibration";
+}
+
 Descriptor descriptorFor(int cameras) {
   Descriptor d = Descriptor::fromYaml(kTrackingDescriptor, "tracking.yaml");
   auto& inputs = d.functionalities.at(0).inputs;
@@ -71,14 +78,15 @@ void TrackerNode::problem(Camera& camera, const std::string& what) {
   std::cerr << "peis-tracker: " << camera.input << ": " << what << "\n";
 }
 
-void TrackerNode::watchCalibration(Camera& camera, PeisId owner) {
+void TrackerNode::watchCalibration(Camera& camera, PeisId owner, const std::string& key) {
   if (camera.calibrationCallback != 0) kernel_->removeCallback(camera.calibrationCallback);
   camera.calibrationOwner = owner;
+  camera.calibrationKey = key;
   camera.calibration.reset();
   const std::size_t index = static_cast<std::size_t>(&camera - cameras_.data());
   const auto apply = [this, index](const Tuple& t) {
     Camera& c = cameras_[index];
-    if (t.owner != c.calibrationOwner) return;
+    if (t.owner != c.calibrationOwner || t.key != c.calibrationKey) return;
     try {
       c.calibration = camera::calibrationFromYaml(t.data, t.fullName());
     } catch (const Error& e) {
@@ -86,20 +94,15 @@ void TrackerNode::watchCalibration(Camera& camera, PeisId owner) {
       problem(c, std::string("broken calibration: ") + e.what());
     }
   };
-  kernel_->subscribe(Pattern::exact(owner, "calibration"));
-  camera.calibrationCallback = kernel_->onChange(Pattern::exact(owner, "calibration"), apply);
-  if (auto known = kernel_->get(owner, "calibration")) apply(*known);
+  kernel_->subscribe(Pattern::exact(owner, key));
+  camera.calibrationCallback = kernel_->onChange(Pattern::exact(owner, key), apply);
+  if (auto known = kernel_->get(owner, key)) apply(*known);
 }
 
 void TrackerNode::onImage(std::size_t index, const Tuple& t) {
   Camera& camera = cameras_[index];
-  if (t.owner != camera.calibrationOwner) watchCalibration(camera, t.owner);
-  if (!camera.calibration) {
-    std::lock_guard lock(statsMu_);
-    ++stats_.noCalibration;
-    problem(camera, "no calibration from " + std::to_string(t.owner) + " yet; image ignored");
-    return;
-  }
+  const std::string key = calibrationKeyOf(t.key);
+  if (t.owner != camera.calibrationOwner || key != camera.calibrationKey) watchCalibration(camera, t.owner, key);
   std::string why;
   const cv::Mat image = camera::decodeImage(t.mimetype, t.data, why);
   if (image.empty()) {
@@ -108,6 +111,14 @@ void TrackerNode::onImage(std::size_t index, const Tuple& t) {
       ++stats_.notImages;
     }
     problem(camera, "dropped a tuple that is not an image: " + why);
+    return;
+  }
+  if (!camera.calibration) {
+    {
+      std::lock_guard lock(statsMu_);
+      ++stats_.noCalibration;
+    }
+    problem(camera, "no calibration at " + std::to_string(t.owner) + "." + key + " (yet); image ignored");
     return;
   }
   if (image.cols != camera.calibration->width || image.rows != camera.calibration->height) {

@@ -1,7 +1,7 @@
 // TrackerNode: camera tracking localization as a PEIS (peis-tracker). Its
 // inputs mi-camera1..mi-cameraN are meta tuples a configurator points at
-// cameras' `image` tuples; the calibration is read from the `calibration`
-// tuple beside each image. Each image is decoded, its hats detected; the
+// cameras' `image` tuples; the calibration is read from the tuple beside
+// each image (`image` -> `calibration`, `left.image` -> `left.calibration`). Each image is decoded, its hats detected; the
 // images of one moment (the same simulated time within a skew) are
 // triangulated together, and `position.<robot>` is published for every
 // robot seen by at least one camera (docs/components/tracking.md).
@@ -52,6 +52,7 @@ class TrackerNode {
   struct Camera {
     std::string input;
     PeisId calibrationOwner = 0;
+    std::string calibrationKey;
     CallbackHandle calibrationCallback = 0;
     std::optional<camera::Calibration> calibration;
     std::optional<Timestamp> frameTime;
@@ -60,7 +61,7 @@ class TrackerNode {
   };
 
   void onImage(std::size_t index, const Tuple& t);
-  void watchCalibration(Camera& camera, PeisId owner);
+  void watchCalibration(Camera& camera, PeisId owner, const std::string& key);
   void trySolve(Timestamp moment);
   void solve(Timestamp moment);
   void problem(Camera& camera, const std::string& what);

@@ -3,6 +3,7 @@
 // channel on a simulated clock.
 #include <cerrno>
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
 #include <string>
 
@@ -20,8 +21,8 @@ const char* kUsage =
     "Battery out), serves the map and named places, publishes the physics channel\n"
     "for simulated sensors and draws a top-down picture. See docs/components/sim-world.md.\n"
     "\n"
-    "  --world FILE         the world file (default: the PEIS-Home,\n"
-    "                       " PEIS_SIM_DEFAULT_WORLD ")\n"
+    "  --world FILE         the world file (default: the PEIS-Home, installed in\n"
+    "                       share/peis/homes/ or else " PEIS_SIM_DEFAULT_WORLD ")\n"
     "  --speed S            simulated seconds per real second, 0.1..100 (default 1)\n"
     "  --tick-ms N          physics step in ms of simulated time, 1..100 (default 10)\n"
     "  --duration SECONDS   end after this much simulated time (default: run until told)\n"
@@ -35,6 +36,18 @@ const char* kUsage =
     "  --help               this text\n"
     "\n"
     "The world PEIS is named 'world' unless --peis-name says otherwise.\n";
+
+// The PEIS-Home installed beside the program (<prefix>/share/peis/homes/),
+// else the one of the source tree the program was built from.
+std::string defaultWorld() {
+  std::error_code error;
+  const auto self = std::filesystem::read_symlink("/proc/self/exe", error);
+  if (!error) {
+    const auto installed = self.parent_path() / PEIS_SIM_INSTALLED_WORLD;
+    if (std::filesystem::exists(installed, error)) return installed.lexically_normal().string();
+  }
+  return PEIS_SIM_DEFAULT_WORLD;
+}
 
 bool parseNumber(const char* text, double low, double high, double* out) {
   if (text == nullptr || *text == '\0') return false;
@@ -50,7 +63,7 @@ bool parseNumber(const char* text, double low, double high, double* out) {
 
 int main(int argc, char** argv) {
   peis::sim::WorldConfig config;
-  std::string worldPath = PEIS_SIM_DEFAULT_WORLD;
+  std::string worldPath = defaultWorld();
   try {
     config.peis = peis::Options::fromArgs(argc, argv);
     if (config.peis.name.empty() || config.peis.name == config.peis.programName) config.peis.name = "world";
