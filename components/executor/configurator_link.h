@@ -46,4 +46,25 @@ class StaticConfigurator : public ConfiguratorLink {
   std::chrono::milliseconds peerWait_;
 };
 
+// Through the meta-level's configurator (branch meta-runtime,
+// meta/monitor/goal_tuples.h): the needs being pursued are posted as the
+// executor's own `config.goal.<name>` tuple, one goal per line, and withdrawn
+// by rewriting it without them (empty when none is left). A post counts as
+// deployed once every need's consumer meta tuple points somewhere (the
+// configurator's deployment wrote it); it fails after `deadline`.
+class GoalTupleConfigurator : public ConfiguratorLink {
+ public:
+  GoalTupleConfigurator(Kernel& kernel, std::string goalKey,
+                        std::chrono::milliseconds deadline = std::chrono::seconds(30));
+  void post(const std::vector<std::string>& needs, Done done) override;
+  void withdraw(const std::vector<std::string>& needs) override;
+
+ private:
+  void publish();
+  Kernel& kernel_;
+  std::string goalKey_;
+  std::chrono::milliseconds deadline_;
+  std::vector<std::string> posted_;
+};
+
 }  // namespace peis::executor

@@ -33,6 +33,10 @@ Options:
                       goes to the PEIS its first argument names.
   --link LINK         INFORMATION=PEIS.KEY: the static configuration that
                       serves needs, e.g. position(pippi)=tracker.position.Pippi
+  --configurator KIND static (default: the --link table) or goal-tuples (post
+                      the needs as this PEIS's config.goal.<name> tuple for the
+                      meta-level's configurator; deployed when the consumers'
+                      meta tuples point somewhere)
   --replans N         failures retried before giving up (default 2)
   --deploy-timeout S  seconds for a step's configuration (default 15)
   --step-timeout S    seconds for a step's action (default 600)
@@ -49,6 +53,7 @@ struct Settings {
   int replans = 2;
   double deployTimeout = 15, stepTimeout = 600;
   bool exitWhenDone = false;
+  std::string configurator = "static";
 };
 
 int parseArgs(int argc, char** argv, Settings& s) {
@@ -73,6 +78,10 @@ int parseArgs(int argc, char** argv, Settings& s) {
         s.plan = value;
       } else if (arg == "--action") {
         s.actions.add(value);
+      } else if (arg == "--configurator") {
+        if (value != "static" && value != "goal-tuples")
+          throw std::invalid_argument("--configurator takes static or goal-tuples");
+        s.configurator = value;
       } else if (arg == "--link") {
         s.links.push_back(peis::executor::parseStaticLink(value));
       } else if (arg == "--replans" || arg == "--deploy-timeout" || arg == "--step-timeout") {

@@ -88,3 +88,39 @@ TEST_CASE("the executor refuses a malformed plan and bad options", "[integration
   CHECK(help.wait(30s) == 0);
   CHECK(help.out().find("Usage: peis-executor") != std::string::npos);
 }
+
+TEST_CASE("with goal tuples, the executor posts a step's needs and waits for their deployment",
+          "[integration]") {
+  Home home("exec-goals");
+  home.start(programPath("peis-sim-world"), {"--speed", "2"});
+  home.start(programPath("peis-navigation"), {"--peis-name", "Pippi", "--base", "Pippi-base"});
+  const peis::PeisId pippi = home.await("Pippi");
+  REQUIRE(pippi != 0);
+  auto& executor = home.start(programPath("peis-executor"),
+                              {"--peis-name", "planner", "--exit", "--configurator", "goal-tuples",
+                               "--plan", "GoTo(Pippi, bedroom-door) | position(pippi)@Pippi.mi-position"});
+  const peis::PeisId planner = home.await("planner");
+  REQUIRE(planner != 0);
+  home.observer->subscribe(peis::Pattern("config.goal.*", planner));
+  home.observer->subscribe(peis::Pattern("plan.status", planner));
+  // The goal is posted where a configurator finds it…
+  REQUIRE(waitFor([&] {
+    const auto goal = home.observer->get(planner, "config.goal.planner");
+    return goal && goal->data == "position(pippi)@Pippi.mi-position\n";
+  }, 60s));
+  // …and nothing is dispatched until it is deployed.
+  const auto waiting = home.observer->get(planner, "plan.status");
+  REQUIRE(waiting);
+  CHECK(waiting->data.rfind("running deploying", 0) == 0);
+  // Stand in for the configurator's deployment: point the meta tuple.
+  home.observer->set("position.Pippi", "5.0 4.0");
+  home.observer->setMeta(pippi, "mi-position", home.observer->id(), "position.Pippi");
+  const auto exit = executor.wait(120s);
+  INFO(executor.describe());
+  REQUIRE(exit == 0);
+  // Withdrawn after the plan.
+  CHECK(waitFor([&] {
+    const auto goal = home.observer->get(planner, "config.goal.planner");
+    return goal && goal->data.empty();
+  }));
+}
