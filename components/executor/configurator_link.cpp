@@ -131,7 +131,8 @@ void GoalTupleConfigurator::post(const std::vector<std::string>& needs, Done don
 }
 
 void GoalTupleConfigurator::withdraw(const std::vector<std::string>& needs) {
-  for (const auto& need : needs) posted_.erase(std::remove(posted_.begin(), posted_.end(), need), posted_.end());
+  for (const auto& need : needs)
+    posted_.erase(std::remove(posted_.begin(), posted_.end(), need), posted_.end());
   publish();
 }
 

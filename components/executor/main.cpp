@@ -12,6 +12,7 @@
 
 #include "configurator_link.h"
 #include "execution/exec_server.h"
+#include "execution/program_options.h"
 #include "executor_descriptor.h"
 #include "plan_runner.h"
 #include "plan_text.h"
@@ -56,51 +57,30 @@ struct Settings {
   std::string configurator = "static";
 };
 
-int parseArgs(int argc, char** argv, Settings& s) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "--help" || arg == "-h") {
-      std::cout << kUsage << "\n" << peis::Options::helpText();
-      return 0;
-    }
-    if (arg == "--exit") {
-      s.exitWhenDone = true;
-      continue;
-    }
-    if (i + 1 >= argc) {
-      std::cerr << "peis-executor: unknown option or missing value: " << arg << "\n";
-      return 2;
-    }
-    const std::string value = argv[++i];
-    try {
-      if (arg == "--plan") {
-        peis::executor::parsePlan(value);
-        s.plan = value;
-      } else if (arg == "--action") {
-        s.actions.add(value);
-      } else if (arg == "--configurator") {
-        if (value != "static" && value != "goal-tuples")
-          throw std::invalid_argument("--configurator takes static or goal-tuples");
-        s.configurator = value;
-      } else if (arg == "--link") {
-        s.links.push_back(peis::executor::parseStaticLink(value));
-      } else if (arg == "--replans" || arg == "--deploy-timeout" || arg == "--step-timeout") {
-        const auto number = peis::exec::parseNumber(value);
-        if (!number || *number < 0)
-          throw std::invalid_argument(arg + " takes a non-negative number");
-        if (arg == "--replans") s.replans = static_cast<int>(*number);
-        if (arg == "--deploy-timeout") s.deployTimeout = *number;
-        if (arg == "--step-timeout") s.stepTimeout = *number;
-      } else {
-        std::cerr << "peis-executor: unknown option " << arg << "\n";
-        return 2;
-      }
-    } catch (const std::invalid_argument& e) {
-      std::cerr << "peis-executor: " << e.what() << "\n";
-      return 2;
-    }
+bool takeOption(Settings& s, const std::string& name, const std::string& value) {
+  if (name == "--exit") {
+    s.exitWhenDone = true;
+  } else if (name == "--plan") {
+    peis::executor::parsePlan(value);  // throws on a malformed plan
+    s.plan = value;
+  } else if (name == "--action") {
+    s.actions.add(value);
+  } else if (name == "--link") {
+    s.links.push_back(peis::executor::parseStaticLink(value));
+  } else if (name == "--configurator") {
+    if (value != "static" && value != "goal-tuples")
+      throw std::invalid_argument("--configurator takes static or goal-tuples");
+    s.configurator = value;
+  } else if (name == "--replans" || name == "--deploy-timeout" || name == "--step-timeout") {
+    const auto number = peis::exec::parseNumber(value);
+    if (!number || *number < 0) throw std::invalid_argument(name + " takes a non-negative number");
+    if (name == "--replans") s.replans = static_cast<int>(*number);
+    if (name == "--deploy-timeout") s.deployTimeout = *number;
+    if (name == "--step-timeout") s.stepTimeout = *number;
+  } else {
+    return false;
   }
-  return -1;
+  return true;
 }
 
 using peis::executor::Command;
@@ -241,7 +221,14 @@ struct Shell {
 int main(int argc, char** argv) {
   peis::Kernel kernel(argc, argv);
   Settings settings;
-  if (const int code = parseArgs(argc, argv, settings); code >= 0) return code;
+  if (const int code =
+          peis::exec::parseProgramOptions(argc, argv, "peis-executor", kUsage,
+                                          [&settings](const std::string& n, const std::string& v) {
+                                            return takeOption(settings, n, v);
+                                          },
+                                          {"--exit"});
+      code >= 0)
+    return code;
   peis::Component component(kernel, "executor",
                             peis::Descriptor::fromYaml(kExecutorDescriptor, "executor.yaml"));
   Shell shell{kernel,

@@ -14,6 +14,7 @@
 #include <string>
 
 #include "execution/exec_server.h"
+#include "execution/program_options.h"
 #include "navigation_descriptor.h"
 #include "robot_link.h"
 
@@ -47,53 +48,33 @@ struct Settings {
   peis::nav::NavigatorOptions nav;
 };
 
-bool parseDouble(const char* text, double& out) {
+bool parseDouble(const std::string& text, double& out) {
   const auto v = peis::exec::parseNumber(text);
   if (!v || *v < 0) return false;
   out = *v;
   return true;
 }
 
-int parseArgs(int argc, char** argv, Settings& s) {
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "--help" || arg == "-h") {
-      std::cout << kUsage << "\n" << peis::Options::helpText();
-      return 0;
-    }
-    if (i + 1 >= argc) {
-      std::cerr << "peis-navigation: unknown option or missing value: " << arg << "\n" << kUsage;
-      return 2;
-    }
-    const char* value = argv[++i];
-    bool ok = true;
-    if (arg == "--base")
-      s.base = value;
-    else if (arg == "--map-server")
-      s.mapServer = value;
-    else if (arg == "--robot")
-      s.robot = value;
-    else if (arg == "--descriptor")
-      s.descriptor = value;
-    else if (arg == "--fix-freshness")
-      ok = parseDouble(value, s.nav.localizer.fixFreshness);
-    else if (arg == "--max-speed")
-      ok = parseDouble(value, s.nav.follower.maxSpeed) && s.nav.follower.maxSpeed > 0;
-    else if (arg == "--goal-tolerance")
-      ok = parseDouble(value, s.nav.follower.goalTolerance) && s.nav.follower.goalTolerance > 0;
-    else if (arg == "--safety-margin")
-      ok = parseDouble(value, s.nav.inflation.safetyMargin);
-    else {
-      std::cerr << "peis-navigation: unknown option " << arg << "\n" << kUsage;
-      return 2;
-    }
-    if (!ok) {
-      std::cerr << "peis-navigation: " << arg << " takes a non-negative number, not '" << value
-                << "'\n";
-      return 2;
-    }
-  }
-  return -1;
+bool takeOption(Settings& s, const std::string& name, const std::string& value) {
+  if (name == "--base")
+    s.base = value;
+  else if (name == "--map-server")
+    s.mapServer = value;
+  else if (name == "--robot")
+    s.robot = value;
+  else if (name == "--descriptor")
+    s.descriptor = value;
+  else if (name == "--fix-freshness")
+    return parseDouble(value, s.nav.localizer.fixFreshness);
+  else if (name == "--max-speed")
+    return parseDouble(value, s.nav.follower.maxSpeed) && s.nav.follower.maxSpeed > 0;
+  else if (name == "--goal-tolerance")
+    return parseDouble(value, s.nav.follower.goalTolerance) && s.nav.follower.goalTolerance > 0;
+  else if (name == "--safety-margin")
+    return parseDouble(value, s.nav.inflation.safetyMargin);
+  else
+    return false;
+  return true;
 }
 
 }  // namespace
@@ -101,7 +82,13 @@ int parseArgs(int argc, char** argv, Settings& s) {
 int main(int argc, char** argv) {
   peis::Kernel kernel(argc, argv);
   Settings settings;
-  if (const int code = parseArgs(argc, argv, settings); code >= 0) return code;
+  if (const int code =
+          peis::exec::parseProgramOptions(argc, argv, "peis-navigation", kUsage,
+                                          [&settings](const std::string& n, const std::string& v) {
+                                            return takeOption(settings, n, v);
+                                          });
+      code >= 0)
+    return code;
   if (settings.base.empty()) settings.base = kernel.name() + "-base";
   if (settings.robot.empty()) settings.robot = peis::nav::robotNameOfDriver(settings.base);
   peis::Descriptor descriptor;

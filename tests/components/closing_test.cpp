@@ -5,7 +5,6 @@
 // ends `success` with the robot within 10 cm of the bed by the world's
 // ground truth.
 #include <catch2/catch.hpp>
-
 #include <cmath>
 
 #include "execution/exec_protocol.h"
@@ -46,8 +45,10 @@ TEST_CASE("GoTo(bed) with the ceiling cameras' tracker: success within 10 cm of 
   home.start(programPath("peis-camera"), {"--camera", "bedroom", "--rate", "5"});
   home.start(programPath("peis-tracker"),
              {"--targets", std::string(PEIS_SOURCE_DIR) + "/components/sim/homes/peis-home.yaml"});
-  auto& navigation = home.start(programPath("peis-navigation"), {"--peis-name", "Pippi", "--base", "Pippi-base"});
-  for (const char* name : {"world", "Pippi-base", "camera-living-2", "camera-bedroom", "tracker", "Pippi"}) {
+  auto& navigation =
+      home.start(programPath("peis-navigation"), {"--peis-name", "Pippi", "--base", "Pippi-base"});
+  for (const char* name :
+       {"world", "Pippi-base", "camera-living-2", "camera-bedroom", "tracker", "Pippi"}) {
     INFO(name << "\n" << home.describeAll());
     REQUIRE(home.await(name) != 0);
   }
@@ -80,7 +81,8 @@ TEST_CASE("GoTo(bed) with the ceiling cameras' tracker: success within 10 cm of 
   const auto truth = home.truePose(world, "Pippi");
   REQUIRE(truth);
   const double error = std::hypot((*truth)[0] - 6.6, (*truth)[1] - 4.9);
-  INFO("Pippi ends at " << (*truth)[0] << ", " << (*truth)[1] << ": " << error << " m from the bed");
+  INFO("Pippi ends at " << (*truth)[0] << ", " << (*truth)[1] << ": " << error
+                        << " m from the bed");
   CHECK(error < 0.10);
   CHECK(navigation.err().find("localizing from fix") != std::string::npos);
 }
@@ -89,7 +91,8 @@ TEST_CASE("navigation's bad input over the network: refused goals, no path, a re
           "[integration]") {
   Home home("nav-bad");
   home.start(programPath("peis-sim-world"), {"--speed", "2"});
-  auto& navigation = home.start(programPath("peis-navigation"), {"--peis-name", "Emil", "--base", "Emil-base"});
+  auto& navigation =
+      home.start(programPath("peis-navigation"), {"--peis-name", "Emil", "--base", "Emil-base"});
   const peis::PeisId emil = home.await("Emil");
   REQUIRE(emil != 0);
   REQUIRE(home.await("world") != 0);

@@ -3,7 +3,6 @@
 // vacuum cleaner's refusals and its push-or-avoid decision from a weight
 // tuple, and a tiny node's light sensor fed from the world.
 #include <catch2/catch.hpp>
-
 #include <fstream>
 #include <random>
 #include <sstream>
@@ -36,7 +35,8 @@ std::optional<peis::exec::ExecStatus> finalStatus(Home& home, peis::PeisId peis,
 TEST_CASE("the photo of the sofa is too dark until the lamp is on", "[integration]") {
   Home home("photo");
   home.start(programPath("peis-sim-world"), {"--speed", "2"});
-  home.start(programPath("peis-photo-camera"), {"--peis-name", "Astrid-camera", "--min-brightness", "60"});
+  home.start(programPath("peis-photo-camera"),
+             {"--peis-name", "Astrid-camera", "--min-brightness", "60"});
   const peis::PeisId camera = home.await("Astrid-camera"), world = home.await("world");
   REQUIRE(camera != 0);
   REQUIRE(world != 0);
@@ -46,10 +46,12 @@ TEST_CASE("the photo of the sofa is too dark until the lamp is on", "[integratio
   home.observer->subscribe(peis::Pattern("physics.light.sofa", world));
   // Night outside: only the lamp can light the sofa.
   home.observer->set(world, "physics.daylight", "0");
-  REQUIRE(waitFor([&] {
-    const auto lux = home.observer->get(world, "physics.light.sofa");
-    return lux && std::stod(lux->data) < 30;
-  }, 30s));
+  REQUIRE(waitFor(
+      [&] {
+        const auto lux = home.observer->get(world, "physics.light.sofa");
+        return lux && std::stod(lux->data) < 30;
+      },
+      30s));
   auto goal = home.observer->set(camera, "ExecGoal", "Photo(sofa)");
   auto status = finalStatus(home, camera, goal.seqno);
   REQUIRE(status);
@@ -62,10 +64,12 @@ TEST_CASE("the photo of the sofa is too dark until the lamp is on", "[integratio
   CHECK(photo->data.substr(1, 3) == "PNG");
 
   home.observer->set(world, "physics.lamp.lamp.level", "100");
-  REQUIRE(waitFor([&] {
-    const auto lux = home.observer->get(world, "physics.light.sofa");
-    return lux && std::stod(lux->data) > 100;
-  }, 30s));
+  REQUIRE(waitFor(
+      [&] {
+        const auto lux = home.observer->get(world, "physics.light.sofa");
+        return lux && std::stod(lux->data) > 100;
+      },
+      30s));
   goal = home.observer->set(camera, "ExecGoal", "Photo(sofa)");
   status = finalStatus(home, camera, goal.seqno);
   REQUIRE(status);
@@ -96,15 +100,19 @@ TEST_CASE("the vacuum needs a position to clean and decides push or avoid from a
   // A weight from the ecology (here the referee stands in for the parcel's node).
   home.observer->set("Weight", "800");
   REQUIRE(home.cli({"meta", "vacuum.mi-weight", "referee.Weight"}) == 0);
-  CHECK(waitFor([&] {
-    const auto d = home.observer->get(vacuum, "obstacle.decision");
-    return d && d->data == "push: 800 g <= 1000 g";
-  }, 30s));
+  CHECK(waitFor(
+      [&] {
+        const auto d = home.observer->get(vacuum, "obstacle.decision");
+        return d && d->data == "push: 800 g <= 1000 g";
+      },
+      30s));
   home.observer->set("Weight", "2500");
-  CHECK(waitFor([&] {
-    const auto d = home.observer->get(vacuum, "obstacle.decision");
-    return d && d->data == "avoid: 2500 g > 1000 g";
-  }, 30s));
+  CHECK(waitFor(
+      [&] {
+        const auto d = home.observer->get(vacuum, "obstacle.decision");
+        return d && d->data == "avoid: 2500 g > 1000 g";
+      },
+      30s));
 }
 
 TEST_CASE("a tiny plant reads the world's light through its sensor file", "[integration]") {
@@ -119,20 +127,23 @@ TEST_CASE("a tiny plant reads the world's light through its sensor file", "[inte
   // A bright day: the sun on the plant is over the plant's threshold.
   home.observer->set(world, "physics.daylight", "40000");
   std::string text;
-  REQUIRE(waitFor([&] {
-    std::ifstream in(file);
-    std::stringstream s;
-    s << in.rdbuf();
-    text = s.str();
-    return text.rfind("light ", 0) == 0 && std::stol(text.substr(6)) > 700;
-  }, 30s));
+  REQUIRE(waitFor(
+      [&] {
+        std::ifstream in(file);
+        std::stringstream s;
+        s << in.rdbuf();
+        text = s.str();
+        return text.rfind("light ", 0) == 0 && std::stol(text.substr(6)) > 700;
+      },
+      30s));
   const long level = std::stol(text.substr(6));
   const double lux = std::stod(home.observer->get(world, "physics.light.plant")->data);
   CHECK(std::abs(level - std::lround(std::min(1000.0, lux / 2))) <= std::max(5.0, 0.05 * level));
   // The plant on the host port reads that level through its HAL.
   std::random_device random;
   const std::string medium = std::to_string(40000 + random() % 20000);
-  peis::test::Process plant({PEIS_TINY_PLANT_PATH}, {{"TINY_SENSOR_FILE", file}, {"TINY_MEDIUM_PORT", medium}});
+  peis::test::Process plant({PEIS_TINY_PLANT_PATH},
+                            {{"TINY_SENSOR_FILE", file}, {"TINY_MEDIUM_PORT", medium}});
   REQUIRE(waitFor([&] { return plant.out().find("plant light ") != std::string::npos; }, 30s));
   const std::string out = plant.out();
   const long seen = std::stol(out.substr(out.find("plant light ") + 12));

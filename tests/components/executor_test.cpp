@@ -3,7 +3,6 @@
 // through ExecGoal / ExecStatus, its configuration deployed and withdrawn,
 // and a plan that cannot succeed ending `failed` with the cause.
 #include <catch2/catch.hpp>
-
 #include <filesystem>
 
 #include "home_support.h"
@@ -30,12 +29,12 @@ TEST_CASE("the executor runs GoTo(bed), Talk(wakeup), GoTo(sofa) on Pippi and Jo
   const peis::PeisId world = home.await("world"), pippi = home.await("Pippi");
   home.observer->subscribe(peis::Pattern("physics.person.Johanna", world));
   home.observer->subscribe(peis::Pattern("mi-position", pippi));
-  auto& executor = home.start(
-      programPath("peis-executor"),
-      {"--peis-name", "Emil-planner", "--exit", "--action", "Talk=$1-voice:Talk($2)", "--link",
-       "position(pippi)=tracker.position.Pippi", "--plan",
-       "GoTo(Pippi, bed) | position(pippi)@Pippi.mi-position; Talk(Pippi, wakeup); "
-       "GoTo(Pippi, sofa) | position(pippi)@Pippi.mi-position"});
+  auto& executor =
+      home.start(programPath("peis-executor"),
+                 {"--peis-name", "Emil-planner", "--exit", "--action", "Talk=$1-voice:Talk($2)",
+                  "--link", "position(pippi)=tracker.position.Pippi", "--plan",
+                  "GoTo(Pippi, bed) | position(pippi)@Pippi.mi-position; Talk(Pippi, wakeup); "
+                  "GoTo(Pippi, sofa) | position(pippi)@Pippi.mi-position"});
   // While a GoTo runs, Pippi's mi-position points at the tracker.
   CHECK(waitFor(
       [&] {
@@ -73,8 +72,9 @@ TEST_CASE("a plan whose step keeps failing ends failed with the cause", "[integr
   const auto exit = executor.wait(120s);
   INFO(executor.describe());
   REQUIRE(exit == 1);
-  CHECK(executor.err().find("plan failed: GoTo(Pippi, attic) failed on Pippi: unknown place 'attic' "
-                            "(gave up after 1 replans)") != std::string::npos);
+  CHECK(
+      executor.err().find("plan failed: GoTo(Pippi, attic) failed on Pippi: unknown place 'attic' "
+                          "(gave up after 1 replans)") != std::string::npos);
 }
 
 TEST_CASE("the executor refuses a malformed plan and bad options", "[integration]") {
@@ -96,18 +96,21 @@ TEST_CASE("with goal tuples, the executor posts a step's needs and waits for the
   home.start(programPath("peis-navigation"), {"--peis-name", "Pippi", "--base", "Pippi-base"});
   const peis::PeisId pippi = home.await("Pippi");
   REQUIRE(pippi != 0);
-  auto& executor = home.start(programPath("peis-executor"),
-                              {"--peis-name", "planner", "--exit", "--configurator", "goal-tuples",
-                               "--plan", "GoTo(Pippi, bedroom-door) | position(pippi)@Pippi.mi-position"});
+  auto& executor =
+      home.start(programPath("peis-executor"),
+                 {"--peis-name", "planner", "--exit", "--configurator", "goal-tuples", "--plan",
+                  "GoTo(Pippi, bedroom-door) | position(pippi)@Pippi.mi-position"});
   const peis::PeisId planner = home.await("planner");
   REQUIRE(planner != 0);
   home.observer->subscribe(peis::Pattern("config.goal.*", planner));
   home.observer->subscribe(peis::Pattern("plan.status", planner));
   // The goal is posted where a configurator finds it…
-  REQUIRE(waitFor([&] {
-    const auto goal = home.observer->get(planner, "config.goal.planner");
-    return goal && goal->data == "position(pippi)@Pippi.mi-position\n";
-  }, 60s));
+  REQUIRE(waitFor(
+      [&] {
+        const auto goal = home.observer->get(planner, "config.goal.planner");
+        return goal && goal->data == "position(pippi)@Pippi.mi-position\n";
+      },
+      60s));
   // …and nothing is dispatched until it is deployed.
   const auto waiting = home.observer->get(planner, "plan.status");
   REQUIRE(waiting);

@@ -69,7 +69,8 @@ struct Home {
   }
 
   // Waits until a PEIS named `name` is known to the observer; its id or 0.
-  PeisId await(const std::string& name, std::chrono::milliseconds deadline = std::chrono::seconds(30)) {
+  PeisId await(const std::string& name,
+               std::chrono::milliseconds deadline = std::chrono::seconds(30)) {
     PeisId id = 0;
     waitFor(
         [&] {

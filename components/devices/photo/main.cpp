@@ -11,6 +11,7 @@
 #include <iostream>
 
 #include "execution/exec_server.h"
+#include "execution/program_options.h"
 #include "photo.h"
 #include "photo_camera_descriptor.h"
 
@@ -51,29 +52,21 @@ int main(int argc, char** argv) {
   std::string worldName = "world";
   double minBrightness = 90;
   peis::devices::PhotoSettings settings;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "--help" || arg == "-h") {
-      std::cout << kUsage << "\n" << peis::Options::helpText();
-      return 0;
-    }
-    if (i + 1 >= argc) {
-      std::cerr << "peis-photo-camera: unknown option or missing value: " << arg << "\n";
-      return 2;
-    }
-    const std::string value = argv[++i];
-    const auto number = peis::exec::parseNumber(value);
-    if (arg == "--world")
-      worldName = value;
-    else if (arg == "--min-brightness" && number && *number >= 0 && *number <= 255)
-      minBrightness = *number;
-    else if (arg == "--full-exposure" && number && *number > 0)
-      settings.fullExposureLux = *number;
-    else {
-      std::cerr << "peis-photo-camera: bad option " << arg << " " << value << "\n";
-      return 2;
-    }
-  }
+  const int code = peis::exec::parseProgramOptions(
+      argc, argv, "peis-photo-camera", kUsage,
+      [&](const std::string& name, const std::string& value) {
+        const auto number = peis::exec::parseNumber(value);
+        if (name == "--world")
+          worldName = value;
+        else if (name == "--min-brightness" && number && *number >= 0 && *number <= 255)
+          minBrightness = *number;
+        else if (name == "--full-exposure" && number && *number > 0)
+          settings.fullExposureLux = *number;
+        else
+          return false;
+        return true;
+      });
+  if (code >= 0) return code;
   peis::Component component(
       kernel, "photo-camera",
       peis::Descriptor::fromYaml(kPhotoCameraDescriptor, "photo_camera.yaml"));

@@ -10,6 +10,7 @@
 #include <map>
 
 #include "execution/exec_server.h"
+#include "execution/program_options.h"
 #include "sensor_file.h"
 #include "sim_sensors_descriptor.h"
 
@@ -35,31 +36,23 @@ int main(int argc, char** argv) {
   std::string worldName = "world";
   double luxPerLevel = 2;
   std::map<std::string, std::string> lights, weights;  // source -> file
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "--help" || arg == "-h") {
-      std::cout << kUsage << "\n" << peis::Options::helpText();
-      return 0;
-    }
-    if (i + 1 >= argc) {
-      std::cerr << "peis-sim-sensors: unknown option or missing value: " << arg << "\n";
-      return 2;
-    }
-    const std::string value = argv[++i];
-    const auto eq = value.find('=');
-    if (arg == "--world") {
-      worldName = value;
-    } else if ((arg == "--light" || arg == "--weight") && eq != std::string::npos && eq > 0 &&
-               eq + 1 < value.size()) {
-      (arg == "--light" ? lights : weights)[value.substr(0, eq)] = value.substr(eq + 1);
-    } else if (arg == "--lux-per-level" && peis::exec::parseNumber(value) &&
-               *peis::exec::parseNumber(value) > 0) {
-      luxPerLevel = *peis::exec::parseNumber(value);
-    } else {
-      std::cerr << "peis-sim-sensors: bad option " << arg << " " << value << "\n";
-      return 2;
-    }
-  }
+  const int code = peis::exec::parseProgramOptions(
+      argc, argv, "peis-sim-sensors", kUsage,
+      [&](const std::string& name, const std::string& value) {
+        const auto eq = value.find('=');
+        const auto number = peis::exec::parseNumber(value);
+        if (name == "--world")
+          worldName = value;
+        else if ((name == "--light" || name == "--weight") && eq != std::string::npos && eq > 0 &&
+                 eq + 1 < value.size())
+          (name == "--light" ? lights : weights)[value.substr(0, eq)] = value.substr(eq + 1);
+        else if (name == "--lux-per-level" && number && *number > 0)
+          luxPerLevel = *number;
+        else
+          return false;
+        return true;
+      });
+  if (code >= 0) return code;
   peis::Component component(kernel, "sim-sensors",
                             peis::Descriptor::fromYaml(kSimSensorsDescriptor, "sim_sensors.yaml"));
   std::map<std::string, peis::devices::SensorValues> files;

@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "execution/exec_server.h"
+#include "execution/program_options.h"
 #include "speech.h"
 #include "talk_descriptor.h"
 
@@ -55,37 +56,23 @@ int main(int argc, char** argv) {
   peis::Kernel kernel(argc, argv);
   std::string base, outDir = ".", voice = "en", espeak = "espeak-ng";
   peis::devices::PhraseTable phrases;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "--help" || arg == "-h") {
-      std::cout << kUsage << "\n" << peis::Options::helpText();
-      return 0;
-    }
-    if (i + 1 >= argc) {
-      std::cerr << "peis-talk: unknown option or missing value: " << arg << "\n";
-      return 2;
-    }
-    const std::string value = argv[++i];
-    if (arg == "--base")
-      base = value;
-    else if (arg == "--out-dir")
-      outDir = value;
-    else if (arg == "--voice")
-      voice = value;
-    else if (arg == "--espeak")
-      espeak = value;
-    else if (arg == "--phrase") {
-      try {
-        phrases.add(value);
-      } catch (const std::invalid_argument& e) {
-        std::cerr << "peis-talk: " << e.what() << "\n";
-        return 2;
-      }
-    } else {
-      std::cerr << "peis-talk: unknown option " << arg << "\n";
-      return 2;
-    }
-  }
+  const int code = peis::exec::parseProgramOptions(
+      argc, argv, "peis-talk", kUsage, [&](const std::string& name, const std::string& value) {
+        if (name == "--base")
+          base = value;
+        else if (name == "--out-dir")
+          outDir = value;
+        else if (name == "--voice")
+          voice = value;
+        else if (name == "--espeak")
+          espeak = value;
+        else if (name == "--phrase")
+          phrases.add(value);  // throws on a bad rule
+        else
+          return false;
+        return true;
+      });
+  if (code >= 0) return code;
   std::error_code ec;
   std::filesystem::create_directories(outDir, ec);
   if (!std::filesystem::is_directory(outDir)) {

@@ -12,6 +12,7 @@
 
 #include "coverage.h"
 #include "execution/exec_server.h"
+#include "execution/program_options.h"
 #include "robot_link.h"
 #include "vacuum_descriptor.h"
 
@@ -39,31 +40,22 @@ int main(int argc, char** argv) {
   peis::nav::RobotLinkSettings link;
   link.logPrefix = "vacuum";
   double pushKg = 1.0, spacing = 0;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    if (arg == "--help" || arg == "-h") {
-      std::cout << kUsage << "\n" << peis::Options::helpText();
-      return 0;
-    }
-    if (i + 1 >= argc) {
-      std::cerr << "peis-vacuum: unknown option or missing value: " << arg << "\n";
-      return 2;
-    }
-    const std::string value = argv[++i];
-    const auto number = peis::exec::parseNumber(value);
-    if (arg == "--base")
-      link.base = value;
-    else if (arg == "--map-server")
-      link.mapServer = value;
-    else if (arg == "--push-kg" && number && *number >= 0)
-      pushKg = *number;
-    else if (arg == "--spacing" && number && *number > 0)
-      spacing = *number;
-    else {
-      std::cerr << "peis-vacuum: bad option " << arg << " " << value << "\n";
-      return 2;
-    }
-  }
+  const int code = peis::exec::parseProgramOptions(
+      argc, argv, "peis-vacuum", kUsage, [&](const std::string& name, const std::string& value) {
+        const auto number = peis::exec::parseNumber(value);
+        if (name == "--base")
+          link.base = value;
+        else if (name == "--map-server")
+          link.mapServer = value;
+        else if (name == "--push-kg" && number && *number >= 0)
+          pushKg = *number;
+        else if (name == "--spacing" && number && *number > 0)
+          spacing = *number;
+        else
+          return false;
+        return true;
+      });
+  if (code >= 0) return code;
   if (link.base.empty()) link.base = kernel.name() + "-base";
   link.robot = peis::nav::robotNameOfDriver(link.base);
   peis::Component component(kernel, "vacuum",
