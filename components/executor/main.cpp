@@ -231,12 +231,15 @@ int main(int argc, char** argv) {
     return code;
   peis::Component component(kernel, "executor",
                             peis::Descriptor::fromYaml(kExecutorDescriptor, "executor.yaml"));
-  Shell shell{kernel,
-              settings,
-              peis::executor::PlanRunner(settings.actions, settings.replans),
-              std::make_unique<peis::executor::StaticConfigurator>(kernel, settings.links),
-              {},
-              -1};
+  Shell shell{kernel,  settings, peis::executor::PlanRunner(settings.actions, settings.replans),
+              nullptr, {},       -1};
+  if (settings.configurator == "goal-tuples")
+    shell.configurator = std::make_unique<peis::executor::GoalTupleConfigurator>(
+        kernel, "config.goal." + kernel.name(),
+        std::chrono::milliseconds(static_cast<long>(settings.deployTimeout * 1000)));
+  else
+    shell.configurator =
+        std::make_unique<peis::executor::StaticConfigurator>(kernel, settings.links);
   // A plan written to `plan` (locally or remotely) starts a run; a malformed
   // one is refused at the gate.
   kernel.setWriteGate([](const peis::Tuple& t, peis::PeisId, const peis::WriteDecision& decide) {

@@ -36,7 +36,7 @@ TEST_CASE("the photo of the sofa is too dark until the lamp is on", "[integratio
   Home home("photo");
   home.start(programPath("peis-sim-world"), {"--speed", "2"});
   home.start(programPath("peis-photo-camera"),
-             {"--peis-name", "Astrid-camera", "--min-brightness", "60"});
+             {"--peis-name", "Astrid-camera", "--min-brightness", "60", "--full-exposure", "100"});
   const peis::PeisId camera = home.await("Astrid-camera"), world = home.await("world");
   REQUIRE(camera != 0);
   REQUIRE(world != 0);
@@ -57,7 +57,9 @@ TEST_CASE("the photo of the sofa is too dark until the lamp is on", "[integratio
   REQUIRE(status);
   CHECK(status->state == peis::exec::ExecState::Failed);
   CHECK(status->cause.rfind("too dark (brightness ", 0) == 0);
-  const double dark = std::stod(home.observer->get(camera, "photo.brightness")->data);
+  const auto darkBrightness = home.observer->get(camera, "photo.brightness");
+  REQUIRE(darkBrightness);
+  const double dark = std::stod(darkBrightness->data);
   const auto photo = home.observer->get(camera, "photo");
   REQUIRE(photo);
   CHECK(photo->mimetype == "image/png");
@@ -74,7 +76,9 @@ TEST_CASE("the photo of the sofa is too dark until the lamp is on", "[integratio
   status = finalStatus(home, camera, goal.seqno);
   REQUIRE(status);
   CHECK(status->toString() == "success " + std::to_string(goal.seqno) + " Photo(sofa)");
-  CHECK(std::stod(home.observer->get(camera, "photo.brightness")->data) > dark + 30);
+  const auto litBrightness = home.observer->get(camera, "photo.brightness");
+  REQUIRE(litBrightness);
+  CHECK(std::stod(litBrightness->data) > dark + 30);
   CHECK_THROWS_AS(home.observer->set(camera, "ExecGoal", "Photo()"), peis::Error);
   goal = home.observer->set(camera, "ExecGoal", "Photo(attic)");
   status = finalStatus(home, camera, goal.seqno);

@@ -192,3 +192,24 @@ TEST_CASE("with drifting odometry, fixes bring the robot to the goal; without th
   CHECK(withFixes < 0.06);
   CHECK(odometryOnly > 0.1);
 }
+
+TEST_CASE("a place goal that comes before the map waits for the map's places", "[unit]") {
+  bool placesKnown = false;
+  Navigator navigator(NavigatorOptions{}, [&](const std::string& name) -> std::optional<Pose2> {
+    if (!placesKnown || name != "bed") return std::nullopt;
+    return Pose2{5.0, 3.0, 0};
+  });
+  test::DiffDriveSim robot({1.0, 1.0, 0}, 0.2);
+  navigator.onOdometry(robot.odometry(), robot.time());
+  auto out = navigator.onGoal(*peis::exec::parseAction("GoTo(bed)"), 1);
+  REQUIRE(out.statuses.size() == 1);
+  CHECK(out.statuses[0].toString() == "running 1 GoTo(bed)");
+  CHECK(navigator.state() == NavState::Pending);
+  placesKnown = true;
+  navigator.setMap(test::smallHome());
+  out = navigator.onOdometry(robot.odometry(), robot.time() + 0.05);
+  CHECK(navigator.state() == NavState::Following);
+  // With the map there, an unknown place fails at once.
+  out = navigator.onGoal(*peis::exec::parseAction("GoTo(attic)"), 2);
+  CHECK(out.statuses.back().toString() == "failed 2 GoTo(attic) unknown place 'attic'");
+}

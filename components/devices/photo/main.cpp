@@ -73,20 +73,21 @@ int main(int argc, char** argv) {
   peis::PeisId world = 0;
   std::uint32_t shots = 0;
   std::unique_ptr<peis::exec::ExecServer> server;
-  server = std::make_unique<peis::exec::ExecServer>(
-      kernel,
-      [](const peis::exec::Action& a) -> std::optional<std::string> {
-        if (a.name != "Photo" || a.args.size() != 1) return "the photo camera does Photo(<region>)";
-        return std::nullopt;
-      },
-      [&](const peis::exec::Action& a, std::uint64_t id) {
+  // Takes the photo; a reading not there yet is waited for (attemptsLeft × 200 ms).
+  std::function<void(const peis::exec::Action&, std::uint64_t, int)> shoot =
+      [&](const peis::exec::Action& a, std::uint64_t id, int attemptsLeft) {
         const std::string region = a.args[0];
         auto failed = [&](const std::string& cause) {
           server->publish({peis::exec::ExecState::Failed, id, a.toString(), cause});
         };
-        if (world == 0) return failed("no world " + worldName + " to see");
-        const auto light = kernel.get(world, "physics.light." + region);
+        const auto light = world ? kernel.get(world, "physics.light." + region) : std::nullopt;
         const auto lux = light ? peis::exec::parseNumber(light->data) : std::nullopt;
+        if (!lux && attemptsLeft > 0) {  // just started: the readings may still be on their way
+          kernel.after(std::chrono::milliseconds(200),
+                       [&, a, id, attemptsLeft] { shoot(a, id, attemptsLeft - 1); });
+          return;
+        }
+        if (world == 0) return failed("no world " + worldName + " to see");
         if (!lux) return failed("no light reading at '" + region + "'");
         const auto worldFile = kernel.get(world, "physics.world");
         const auto colour = worldFile ? colourOf(worldFile->data, region) : std::nullopt;
@@ -107,7 +108,14 @@ int main(int argc, char** argv) {
           return failed(std::string("too dark (brightness ") + text + " < " +
                         std::to_string(static_cast<int>(minBrightness)) + ")");
         server->publish({peis::exec::ExecState::Success, id, a.toString(), ""});
-      });
+      };
+  server = std::make_unique<peis::exec::ExecServer>(
+      kernel,
+      [](const peis::exec::Action& a) -> std::optional<std::string> {
+        if (a.name != "Photo" || a.args.size() != 1) return "the photo camera does Photo(<region>)";
+        return std::nullopt;
+      },
+      [&](const peis::exec::Action& a, std::uint64_t id) { shoot(a, id, 10); });
   peis::exec::whenPeerKnown(kernel, worldName, [&](peis::PeisId id) {
     world = id;
     kernel.subscribe(peis::Pattern("physics.light.*", id));

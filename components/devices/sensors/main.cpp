@@ -12,7 +12,7 @@
 #include "execution/exec_server.h"
 #include "execution/program_options.h"
 #include "sensor_file.h"
-#include "sim_sensors_descriptor.h"
+#include "sensors_descriptor.h"
 
 namespace {
 
@@ -54,7 +54,7 @@ int main(int argc, char** argv) {
       });
   if (code >= 0) return code;
   peis::Component component(kernel, "sim-sensors",
-                            peis::Descriptor::fromYaml(kSimSensorsDescriptor, "sim_sensors.yaml"));
+                            peis::Descriptor::fromYaml(kSensorsDescriptor, "sensors.yaml"));
   std::map<std::string, peis::devices::SensorValues> files;
   auto write = [&](const std::string& file) {
     if (!peis::devices::writeAtomically(file, peis::devices::formatSensorFile(files[file])))

@@ -121,20 +121,24 @@ NavOutput Navigator::onGoal(const exec::Action& action, std::uint64_t goalId) {
   }
   std::string cause;
   const auto target = resolve(action, cause);
-  if (!target) {
+  // Before the map has come, places may not have come either: wait for them.
+  const bool waitForPlaces = !target && !hasMap() && action.args.size() == 1;
+  if (!target && !waitForPlaces) {
     out.statuses.push_back({exec::ExecState::Failed, goalId, text, cause});
     return out;
   }
   // A goal while another runs replaces it.
   finish(out, exec::ExecState::Failed, "replaced by goal " + std::to_string(goalId));
   out.command.reset();
-  goal_ = Goal{goalId, text, *target, -1};
+  goal_ = Goal{goalId, text, target.value_or(Target{}), -1,
+               waitForPlaces ? std::optional<exec::Action>(action) : std::nullopt};
   replans_ = 0;
   if (costmap_.grid().cells() != mapGrid_.cells()) costmap_ = Costmap(mapGrid_, options_.inflation);
   state_ = NavState::Pending;
   out.statuses.push_back({exec::ExecState::Running, goalId, text, ""});
-  out.log.push_back("goal " + std::to_string(goalId) + ": " + text + " -> " +
-                    describe(target->position));
+  out.log.push_back(
+      "goal " + std::to_string(goalId) + ": " + text +
+      (target ? " -> " + describe(target->position) : " (waiting for the map's places)"));
   if (const auto estimate = localizer_.estimate(); estimate && hasMap()) plan(out, estimate->pose);
   return out;
 }
@@ -209,6 +213,16 @@ NavOutput Navigator::onOdometry(const Pose2& odometry, double time) {
         if (time - goal_->waitingSince > options_.mapWaitSeconds)
           finish(out, exec::ExecState::Failed, "no map");
         break;
+      }
+      if (goal_->unresolved) {
+        std::string cause;
+        const auto target = resolve(*goal_->unresolved, cause);
+        if (!target) {
+          finish(out, exec::ExecState::Failed, cause);
+          break;
+        }
+        goal_->target = *target;
+        goal_->unresolved.reset();
       }
       if (plan(out, pose)) out.command = follower_.update(pose);
       break;

@@ -102,6 +102,8 @@ class Navigator {
     std::string action;
     Target target;
     double waitingSince = -1;
+    // A place goal that came before the map (and its places): resolved once it is there.
+    std::optional<exec::Action> unresolved;
   };
 
   // Resolves GoTo's arguments to a target; a cause when it cannot.
