@@ -43,6 +43,16 @@ std::uint32_t msOf(Timestamp t) {
                             std::chrono::duration_cast<milliseconds>(t.time_since_epoch()).count());
 }
 
+// A full tuple's ts_expire as a tiny lifetime: ms from now (computed in ms,
+// so no stamp overflows), 0 ("never") when further off than the u32 field
+// holds (49.7 days), -1 when it has passed.
+long long tinyLifetime(Timestamp expire) {
+  using std::chrono::duration_cast;
+  const auto left = duration_cast<milliseconds>(expire.time_since_epoch()).count() -
+                    duration_cast<milliseconds>(systemNow().time_since_epoch()).count();
+  return left <= 0 ? -1 : left > 0xFFFFFFFFLL ? 0 : left;
+}
+
 std::vector<std::uint16_t> subKeys(const tiny_key& key) {
   return std::vector<std::uint16_t>(key.sub, key.sub + key.len);
 }
@@ -417,8 +427,8 @@ struct TinyBridge::Impl {
         writer >= 1 && writer <= 0xFFFE ? static_cast<std::uint16_t>(writer) : config.tinyId;
     write.request.ts_user = msOf(t.ts_user);
     if (t.ts_expire != kNoTime) {
-      const auto left = std::chrono::duration_cast<milliseconds>(t.ts_expire - systemNow()).count();
-      write.request.ts_expire = static_cast<std::uint32_t>(std::max<long long>(left, 1));
+      const auto left = tinyLifetime(t.ts_expire);
+      write.request.ts_expire = left == 0 ? 0u : static_cast<std::uint32_t>(std::max(left, 1LL));
     }
     if (t.data.size() > 255 ||
         tiny_tuple_set_key_data(&write.request, &*key, t.data.data(),
@@ -523,8 +533,8 @@ struct TinyBridge::Impl {
     out.ts_write = msOf(t.ts_write);
     out.ts_user = msOf(t.ts_user);
     if (t.ts_expire != kNoTime) {
-      const auto left = std::chrono::duration_cast<milliseconds>(t.ts_expire - systemNow()).count();
-      if (left <= 0) return;
+      const auto left = tinyLifetime(t.ts_expire);
+      if (left < 0) return;
       out.ts_expire = static_cast<std::uint32_t>(left);
     }
     std::uint8_t buf[TINY_FRAME_MAX];

@@ -30,6 +30,7 @@
 #include "net/network.h"
 #include "peis/error.h"
 #include "replication.h"
+#include "saturating_time.h"
 #include "tuple_space.h"
 
 namespace peis {
@@ -264,7 +265,7 @@ struct Kernel::Impl {
   void scheduleExpiry(Timestamp at) {  // kernel thread
     if (scheduledExpiry != kNoTime && scheduledExpiry <= at) return;
     scheduledExpiry = at;
-    expiryTimer.expires_after(at - systemNow());
+    expiryTimer.expires_after(timerWait(at, systemNow()));  // far-off: fires early, re-armed
     expiryTimer.async_wait([this](const boost::system::error_code& ec) {
       if (ec) return;  // re-scheduled earlier or shutting down
       scheduledExpiry = kNoTime;
@@ -288,7 +289,7 @@ struct Kernel::Impl {
   }
 
   void startTimer(const std::shared_ptr<Timer>& timer, std::chrono::milliseconds delay) {
-    timer->timer->expires_after(delay);
+    timer->timer->expires_after(saturatingCast<std::chrono::steady_clock::duration>(delay));
     timer->timer->async_wait([this, timer](const boost::system::error_code& ec) {
       if (ec || !timer->active) return;
       if (timer->period.count() == 0) {
@@ -414,9 +415,12 @@ struct Kernel::Impl {
   void holdWrite(const WriteGate& gate, PeisId source, wire::Write&& write) {
     auto held = std::make_shared<wire::Write>(std::move(write));
     auto decided = std::make_shared<std::atomic<bool>>(false);
-    WriteDecision decide = [this, source, held, decided](const std::optional<Error>& refusal) {
+    auto gateTimer = std::make_shared<asio::steady_timer>(io);  // the writer's deadline
+    WriteDecision decide = [this, source, held, decided,
+                            gateTimer](const std::optional<Error>& refusal) {
       if (decided->exchange(true)) return;
-      asio::post(io, [this, source, held, refusal] {
+      asio::post(io, [this, source, held, refusal, gateTimer] {
+        gateTimer->cancel();
         std::lock_guard lock(mu);
         if (refusal) {
           replication.refuseWrite(source, *held, *refusal);
@@ -433,7 +437,20 @@ struct Kernel::Impl {
       decide(Error(ErrorCode::Refused, std::string("write gate failed: ") + e.what()));
       return;
     }
-    if (!holding) decide(std::nullopt);
+    if (!holding) return decide(std::nullopt);
+    if (held->waitMs == 0) return;
+    // Answer while the writer still waits, with the reason, rather than let
+    // its deadline pass (docs/protocol.md §12).
+    const auto hold = std::chrono::milliseconds(held->waitMs) * 3 / 4;
+    gateTimer->expires_after(hold);
+    gateTimer->async_wait(
+        [decide, hold, waitMs = held->waitMs](const boost::system::error_code& ec) {
+          if (ec) return;
+          decide(Error(ErrorCode::Timeout, "its write gate held the write for " +
+                                               std::to_string(hold.count()) +
+                                               " ms without a decision (the writer waits " +
+                                               std::to_string(waitMs) + " ms)"));
+        });
   }
 
   void onPeerDown(PeisId peer) {
@@ -481,6 +498,8 @@ struct Kernel::Impl {
                 }
               } else if constexpr (std::is_same_v<T, wire::TupleDeleted>) {
                 replication.onDeleted(source, body);
+              } else if constexpr (std::is_same_v<T, wire::TupleWithheld>) {
+                replication.onWithheld(std::move(body));
               } else if constexpr (std::is_same_v<T, wire::Write>) {
                 if (writeGate && body.op == wire::WriteOp::Set && body.tuple.owner == id) {
                   gated.emplace_back(source, std::move(body));
@@ -503,7 +522,10 @@ struct Kernel::Impl {
     }
     for (auto& [source, result] : results) {
       auto pending = pendingWrites.find(result.request);
-      if (pending == pendingWrites.end() || pending->second.owner != source) continue;
+      // A PEIS on the route may refuse the write for the owner (a frame over
+      // its data limit); only the owner can accept it.
+      if (pending == pendingWrites.end() || (pending->second.owner != source && result.status == 0))
+        continue;
       if (result.status == 0) {
         completeWrite(result.request, std::nullopt, result.seqno);
       } else {
@@ -545,7 +567,8 @@ struct Kernel::Impl {
     wire::Write write;
     write.op = op;
     write.ifSeqno = ifSeqno;
-    write.ttlMicros = writeOptions.ttl.count();
+    write.ttlMicros = std::max<std::int64_t>(writeOptions.ttl.count(), 0);    // <= 0: never expires
+    write.waitMs = static_cast<std::uint32_t>(options.writeTimeout.count());  // validated to fit
     write.tuple.owner = owner;
     write.tuple.creator = id;
     write.tuple.key = std::string(key);
@@ -946,7 +969,7 @@ std::optional<Tuple> Kernel::get(PeisId owner, std::string_view key,
                 "a blocking get on the kernel thread (in a callback) would stop the kernel; "
                 "register a callback instead");
   }
-  const auto deadline = std::chrono::steady_clock::now() + wait;
+  const auto deadline = deadlineAfter(std::chrono::steady_clock::now(), wait);
   // A remote value arrives by subscription: hold one while waiting.
   std::optional<SubscriptionHandle> subscription;
   if (owner != id()) {
@@ -962,12 +985,15 @@ std::optional<Tuple> Kernel::get(PeisId owner, std::string_view key,
   std::unique_lock lock(impl_->mu);
   ++impl_->waiters;
   TuplePtr tuple;
+  std::optional<TupleSpace::Withheld> withheld;  // a value that will not come
   impl_->changed.wait_until(lock, deadline, [&] {
     tuple = impl_->space.get(owner, key);
-    return tuple != nullptr;
+    if (!tuple) withheld = impl_->space.withheld(owner, key);
+    return tuple != nullptr || withheld.has_value();
   });
   --impl_->waiters;
   lock.unlock();
+  if (!tuple && withheld) throw Error(ErrorCode::TooLarge, withheld->reason(id()));
   if (!tuple) return std::nullopt;
   return *tuple;
 }
@@ -1135,7 +1161,8 @@ std::string Kernel::run() {
 
 bool Kernel::runFor(std::chrono::milliseconds limit) {
   std::unique_lock lock(impl_->quitMu);
-  return impl_->quitCv.wait_for(lock, limit, [&] { return impl_->quitting; });
+  return impl_->quitCv.wait_until(lock, deadlineAfter(std::chrono::steady_clock::now(), limit),
+                                  [&] { return impl_->quitting; });
 }
 
 void Kernel::quit(std::string reason) { impl_->requestQuit(std::move(reason)); }

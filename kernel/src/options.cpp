@@ -136,9 +136,17 @@ void Options::validate() const {
   }
   checkEcology(ecology);
   if (maxDataBytes > kMaxDataBytes) bad("--peis-max-data", "at most 2^31-1 bytes");
-  if (liveness.count() < 100) bad("--peis-liveness-ms", "at least 100 ms");
-  if (writeTimeout.count() <= 0) bad("writeTimeout", "must be positive");
-  if (subscriptionLease.count() < 300) bad("subscriptionLease", "at least 300 ms");
+  if (liveness.count() < 100 || liveness.count() > 3600000) {
+    bad("--peis-liveness-ms", "100..3600000 ms");
+  }
+  // Both travel as u32 milliseconds (a Write's wait, a Subscribe's lease).
+  constexpr std::int64_t kMostMs = 0xffffffff;
+  if (writeTimeout.count() <= 0 || writeTimeout.count() > kMostMs) {
+    bad("writeTimeout", "1..4294967295 ms");
+  }
+  if (subscriptionLease.count() < 300 || subscriptionLease.count() > kMostMs) {
+    bad("subscriptionLease", "300..4294967295 ms");
+  }
 }
 
 std::string Options::helpText() {

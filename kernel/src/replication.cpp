@@ -4,6 +4,23 @@
 #include "peis/error.h"
 
 namespace peis {
+namespace {
+
+Tuple withoutData(const Tuple& t) {
+  Tuple head;
+  head.owner = t.owner;
+  head.creator = t.creator;
+  head.key = t.key;
+  head.mimetype = t.mimetype;
+  head.encoding = t.encoding;
+  head.ts_write = t.ts_write;
+  head.ts_user = t.ts_user;
+  head.ts_expire = t.ts_expire;
+  head.seqno = t.seqno;
+  return head;
+}
+
+}  // namespace
 
 Replication::Replication(TupleSpace& space, std::uint64_t incarnation,
                          std::chrono::milliseconds lease)
@@ -15,7 +32,7 @@ void Replication::onLocalEvent(EventKind kind, const TuplePtr& tuple) {
     for (const auto& [id, subscription] : subscriptions) {
       if (!subscription.pattern.matchesOwnerAndKey(tuple->owner, tuple->key)) continue;
       if (kind == EventKind::Changed) {
-        pushUpdate(subscriber, tuple);
+        pushUpdate(subscriber, tuple, subscription.maxDataBytes);
       } else {
         push(Outgoing{subscriber, nullptr,
                       wire::TupleDeleted{incarnation_, tuple->owner, tuple->key, tuple->seqno}});
@@ -37,7 +54,8 @@ void Replication::onSubscribe(PeisId subscriber, const wire::Subscribe& subscrib
   auto& subscriptions = remote_[subscriber];
   const bool isNew = !subscriptions.count(subscribe.subscription);
   const auto lease = std::chrono::milliseconds(std::max<std::uint32_t>(subscribe.leaseMs, 300));
-  subscriptions.insert_or_assign(subscribe.subscription, RemoteSubscription{pattern, now + lease});
+  subscriptions.insert_or_assign(subscribe.subscription,
+                                 RemoteSubscription{pattern, now + lease, subscribe.maxDataBytes});
   const auto matching = space_.find(pattern);
   if (!isNew) {
     // A renewal: resend everything only if the subscriber is missing values.
@@ -47,7 +65,7 @@ void Replication::onSubscribe(PeisId subscriber, const wire::Subscribe& subscrib
     ++resyncs_;
   }
   for (const auto& tuple : matching) {
-    pushUpdate(subscriber, tuple);
+    pushUpdate(subscriber, tuple, subscribe.maxDataBytes);
   }
 }
 
@@ -128,13 +146,19 @@ bool Replication::covers(const LocalSubscription& local, PeisId owner) const {
   return owner != space_.self() && (!filter || *filter == owner);
 }
 
+wire::Subscribe Replication::subscribeMessage(const LocalSubscription& local,
+                                              std::uint64_t wireId) const {
+  wire::Subscribe message{wireId, static_cast<std::uint32_t>(lease_.count()),
+                          local.pattern.ownerFilter(), local.pattern.keyPattern()};
+  message.maxDataBytes = static_cast<std::uint32_t>(space_.limits().maxDataBytes);
+  return message;
+}
+
 void Replication::sendSubscribe(LocalSubscription& local, PeisId owner) {
   auto& wireId = local.wireIds[owner];
   if (wireId != 0) push(Outgoing{owner, nullptr, wire::Unsubscribe{wireId}});
   wireId = nextWireId_++;
-  push(Outgoing{owner, nullptr,
-                wire::Subscribe{wireId, static_cast<std::uint32_t>(lease_.count()),
-                                local.pattern.ownerFilter(), local.pattern.keyPattern()}});
+  push(Outgoing{owner, nullptr, subscribeMessage(local, wireId)});
   unanswered_.push_back(
       Unanswered{owner, wireId, std::chrono::steady_clock::now() + kUnansweredAfter, 0});
 }
@@ -153,10 +177,10 @@ void Replication::retryUnanswered(SteadyTime now) {
       const auto id = l.wireIds.find(u.owner);
       if (id != l.wireIds.end() && id->second == u.wireId) local = &l;
     }
-    if (!local || !space_.find(Pattern(local->pattern.keyPattern(), u.owner)).empty()) continue;
-    push(Outgoing{u.owner, nullptr,
-                  wire::Subscribe{u.wireId, static_cast<std::uint32_t>(lease_.count()),
-                                  local->pattern.ownerFilter(), local->pattern.keyPattern()}});
+    if (!local) continue;
+    const Pattern ofOwner(local->pattern.keyPattern(), u.owner);
+    if (!space_.find(ofOwner).empty() || !space_.findWithheld(ofOwner).empty()) continue;
+    push(Outgoing{u.owner, nullptr, subscribeMessage(*local, u.wireId)});
     if (++u.tries < kUnansweredRetries) {
       u.due = now + kUnansweredAfter * (1 << u.tries);
       keep.push_back(u);
@@ -193,16 +217,11 @@ bool Replication::unsubscribe(SubscriptionHandle handle) {
 }
 
 bool Replication::checkIncarnation(PeisId owner, std::uint64_t incarnation) {
-  auto& known = incarnations_[owner];
-  if (incarnation < known) {
-    ++staleDropped_;
-    return false;
-  }
-  if (incarnation > known) {
-    if (known != 0) space_.forgetOwner(owner);  // it restarted: its old tuples are gone
-    known = incarnation;
-  }
-  return true;
+  // A newer one: the owner restarted, its old tuples are gone (the space
+  // forgets them and takes the new life's seqnos from 1).
+  if (space_.noteIncarnation(owner, incarnation)) return true;
+  ++staleDropped_;
+  return false;
 }
 
 bool Replication::onUpdate(PeisId source, wire::TupleUpdate&& update) {
@@ -223,14 +242,26 @@ bool Replication::onDeleted(PeisId source, const wire::TupleDeleted& deleted) {
   return space_.acceptDelete(deleted.owner, deleted.key, deleted.seqno);
 }
 
+bool Replication::onWithheld(wire::TupleWithheld&& withheld) {
+  // Any PEIS on the way may send it (it only ever says "too large here"):
+  // the owner is the tuple's, its life the one the owner stamped.
+  if (!checkIncarnation(withheld.tuple.owner, withheld.ownerIncarnation)) return false;
+  return space_.acceptWithheld(TupleSpace::Withheld{std::move(withheld.tuple), withheld.dataBytes,
+                                                    withheld.limitedBy, withheld.limit});
+}
+
 void Replication::renew() {
   for (auto& [handle, local] : local_) {
     for (const auto& [owner, wireId] : local.wireIds) {
-      wire::Subscribe renewal{wireId, static_cast<std::uint32_t>(lease_.count()),
-                              local.pattern.ownerFilter(), local.pattern.keyPattern()};
-      for (const auto& tuple : space_.find(Pattern(local.pattern.keyPattern(), owner))) {
+      auto renewal = subscribeMessage(local, wireId);
+      const Pattern ofOwner(local.pattern.keyPattern(), owner);
+      for (const auto& tuple : space_.find(ofOwner)) {
         ++renewal.knownCount;
         renewal.knownSeqnoSum += tuple->seqno;
+      }
+      for (const auto& withheld : space_.findWithheld(ofOwner)) {  // known, if not held
+        ++renewal.knownCount;
+        renewal.knownSeqnoSum += withheld.tuple.seqno;
       }
       push(Outgoing{owner, nullptr, std::move(renewal)});
     }
@@ -242,14 +273,9 @@ void Replication::onPeerUp(PeisId peer, std::uint64_t incarnation) {
   // Remember the incarnation even of a peer that never sent a tuple: a
   // subscriber that restarts numbers its subscriptions from 1 again, and
   // those of its old life must not pass for renewals (no full sync).
-  auto [known, firstSeen] = incarnations_.try_emplace(peer, incarnation);
-  if (!firstSeen && known->second != incarnation) {
-    remote_.erase(peer);  // subscriptions of its previous life
-    if (known->second < incarnation) {
-      space_.forgetOwner(peer);
-      known->second = incarnation;
-    }
-  }
+  const auto known = space_.incarnationOf(peer);
+  if (known != 0 && known != incarnation) remote_.erase(peer);  // of its previous life
+  space_.noteIncarnation(peer, incarnation);  // a newer one forgets its old tuples
   // A fresh subscription id makes the owner send everything that matches:
   // this PEIS converges after a join, a restart or a healed partition.
   for (auto& [handle, local] : local_) {
@@ -303,7 +329,15 @@ void Replication::push(Outgoing outgoing) {
   outbox_.push_back(std::move(outgoing));
 }
 
-void Replication::pushUpdate(PeisId destination, const TuplePtr& tuple) {
+void Replication::pushUpdate(PeisId destination, const TuplePtr& tuple,
+                             std::uint32_t maxDataBytes) {
+  if (tuple->data.size() > maxDataBytes) {
+    // The subscriber would have to drop the update: say what it misses.
+    return push(Outgoing{
+        destination, nullptr,
+        wire::TupleWithheld{incarnation_, destination, maxDataBytes,
+                            static_cast<std::uint32_t>(tuple->data.size()), withoutData(*tuple)}});
+  }
   const bool big = tuple->data.size() >= wire::kZeroCopyDataBytes;
   if (outboxBytes_ < kTrackOutboxAbove && !big) return appendFrame(destination, *tuple);
   if (outboxBytes_ < kTrackOutboxAbove) {

@@ -3,7 +3,9 @@
 // subscribers with leases, full sync on a new subscription, applying remote
 // writes) and the subscriber side (subscriptions per owner, re-subscribing
 // when an owner appears or restarts, accepting updates in seqno order per
-// owner incarnation). Its output is an outbox of messages that the Kernel
+// owner incarnation; the space keeps the incarnations). An owner sends a
+// value over a subscriber's data limit as TupleWithheld, not as an update
+// the subscriber would have to drop. Its output is an outbox of messages that the Kernel
 // hands to the Network on the kernel thread. Every method is called with
 // the Kernel's lock held.
 #pragma once
@@ -65,6 +67,9 @@ class Replication {
   // Accepts an owner's update / delete; false if stale or spoofed (counted).
   bool onUpdate(PeisId source, wire::TupleUpdate&& update);
   bool onDeleted(PeisId source, const wire::TupleDeleted& deleted);
+  // A value over a data limit (from its owner or a relay on the way); false
+  // if stale.
+  bool onWithheld(wire::TupleWithheld&& withheld);
   // Re-sends every subscription (lease renewal).
   void renew();
   void onPeerUp(PeisId peer, std::uint64_t incarnation);
@@ -117,6 +122,7 @@ class Replication {
   struct RemoteSubscription {
     Pattern pattern;
     SteadyTime expiry;
+    std::uint32_t maxDataBytes = wire::kNoDataLimit;  // the subscriber's limit
   };
   struct LocalSubscription {
     Pattern pattern;
@@ -132,6 +138,7 @@ class Replication {
   std::vector<Unanswered> unanswered_;
   bool covers(const LocalSubscription& local, PeisId owner) const;
   bool checkIncarnation(PeisId owner, std::uint64_t incarnation);
+  wire::Subscribe subscribeMessage(const LocalSubscription& local, std::uint64_t wireId) const;
 
   TupleSpace& space_;
   std::uint64_t incarnation_;
@@ -140,10 +147,9 @@ class Replication {
   std::map<SubscriptionHandle, LocalSubscription> local_;
   std::map<CallbackId, SubscriptionHandle> indirectTargets_;
   std::map<CallbackId, SubscriptionHandle> indirectMetas_;
-  std::map<PeisId, std::uint64_t> incarnations_;
   std::set<PeisId> reachable_;
   void push(Outgoing outgoing);
-  void pushUpdate(PeisId destination, const TuplePtr& tuple);
+  void pushUpdate(PeisId destination, const TuplePtr& tuple, std::uint32_t maxDataBytes);
   void appendFrame(PeisId destination, const Tuple& tuple);
   void forgetPending(PeisId destination);
   std::deque<Outgoing> outbox_;

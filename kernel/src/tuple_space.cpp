@@ -8,6 +8,7 @@
 
 #include "peis/error.h"
 #include "peis/key.h"
+#include "saturating_time.h"
 
 namespace peis {
 
@@ -19,8 +20,8 @@ struct TupleSpace::Entry {
 };
 
 // An indirect callback. `queueTarget` is where events are matched (under the
-// owner's serialisation); `deliverTarget`/`lastSeqno` are only touched when
-// deliveries run, in queue order.
+// owner's serialisation); `deliverTarget` and the last delivered (incarnation,
+// seqno) are only touched when deliveries run, in queue order.
 struct TupleSpace::Indirect {
   TupleRef meta;
   unsigned mask = kOnAny;
@@ -29,6 +30,7 @@ struct TupleSpace::Indirect {
   bool targeted = false;
   std::optional<TupleRef> queueTarget;
   std::optional<TupleRef> deliverTarget;
+  std::uint64_t lastIncarnation = 0;
   std::uint64_t lastSeqno = 0;
 };
 
@@ -75,6 +77,7 @@ void TupleSpace::Delivery::run(const std::function<void(std::exception_ptr)>& on
     if (!indirect.active) continue;
     if (target.retarget) {
       indirect.deliverTarget = target.newTarget;
+      indirect.lastIncarnation = incarnation_;
       indirect.lastSeqno = 0;
       if (tuple_) {
         indirect.lastSeqno = tuple_->seqno;
@@ -83,7 +86,12 @@ void TupleSpace::Delivery::run(const std::function<void(std::exception_ptr)>& on
       continue;
     }
     if (!tuple_ || !sameRef(indirect.deliverTarget, *tuple_)) continue;
-    if (tuple_->seqno <= indirect.lastSeqno) continue;
+    // A new life of the target's owner numbers from 1 again: it is newer.
+    const bool newer =
+        incarnation_ > indirect.lastIncarnation ||
+        (incarnation_ == indirect.lastIncarnation && tuple_->seqno > indirect.lastSeqno);
+    if (!newer) continue;
+    indirect.lastIncarnation = incarnation_;
     indirect.lastSeqno = tuple_->seqno;
     if (indirect.mask & static_cast<unsigned>(kind_)) call(indirect.fn, kind_);
   }
@@ -119,6 +127,12 @@ void TupleSpace::changeSelf(PeisId newId) {
        it != tuples_.end() && it->first.owner == newId;) {
     it = tuples_.erase(it);
   }
+  for (auto it = withheld_.lower_bound(TupleRef{newId, ""});
+       it != withheld_.end() && it->first.owner == newId;) {
+    it = withheld_.erase(it);
+  }
+  incarnations_.erase(newId);
+  lastLifeOwner_ = 0;
   const PeisId oldId = self_;
   self_ = newId;
   // Callbacks on this PEIS's own tuples follow it to its new id.
@@ -187,7 +201,7 @@ TuplePtr TupleSpace::set(std::string_view key, std::string data, const WriteOpti
   tuple.ts_write = now;
   tuple.ts_user = options.ts_user;
   tuple.ts_expire = options.ts_expire != kNoTime ? options.ts_expire
-                    : options.ttl.count() > 0    ? now + options.ttl
+                    : options.ttl.count() > 0    ? saturatingAdd(now, options.ttl)
                                                  : kNoTime;
   tuple.seqno = ++seqno;
   return store(std::move(tuple));
@@ -258,9 +272,37 @@ void TupleSpace::remove(std::map<TupleRef, TuplePtr>::iterator it, std::uint64_t
   queueEvent(EventKind::Deleted, std::make_shared<const Tuple>(std::move(last)));
 }
 
-bool TupleSpace::accept(Tuple&& tuple) {
+std::uint64_t TupleSpace::incarnationOf(PeisId owner) const {
+  auto it = incarnations_.find(owner);
+  return it == incarnations_.end() ? 0 : it->second;
+}
+
+bool TupleSpace::noteIncarnation(PeisId owner, std::uint64_t incarnation) {
+  if (incarnation == 0 || owner == self_) return true;
+  if (owner == lastLifeOwner_ && incarnation == lastLife_) return true;  // a stream
+  auto [it, first] = incarnations_.try_emplace(owner, incarnation);
+  if (!first && incarnation < it->second) return false;
+  if (!first && incarnation > it->second) {
+    // Its delete events belong to the old life: recorded before the new one.
+    forgetOwner(owner);
+    it->second = incarnation;
+  }
+  lastLifeOwner_ = owner;
+  lastLife_ = incarnation;
+  return true;
+}
+
+bool TupleSpace::accept(Tuple&& tuple, std::uint64_t incarnation) {
   if (tuple.owner == self_ || !isValidPeisId(tuple.owner)) return false;
   checkData(tuple.data.size());
+  if (!noteIncarnation(tuple.owner, incarnation)) return false;
+  if (!withheld_.empty()) {
+    auto w = withheld_.find(refOf(tuple));
+    if (w != withheld_.end()) {
+      if (w->second.tuple.seqno >= tuple.seqno) return false;
+      withheld_.erase(w);
+    }
+  }
   auto it = isLastEntry(tuple.owner, tuple.key) ? lastEntry_ : tuples_.find(refOf(tuple));
   if (it == tuples_.end()) {
     if (keyProblem(tuple.key)) return false;  // a key already held was checked before
@@ -276,16 +318,69 @@ bool TupleSpace::accept(Tuple&& tuple) {
   return true;
 }
 
-bool TupleSpace::acceptDelete(PeisId owner, std::string_view key, std::uint64_t seqno) {
-  if (owner == self_) return false;
+bool TupleSpace::acceptDelete(PeisId owner, std::string_view key, std::uint64_t seqno,
+                              std::uint64_t incarnation) {
+  if (owner == self_ || !noteIncarnation(owner, incarnation)) return false;
+  if (auto w = withheld_.find(TupleRef{owner, std::string(key)});
+      w != withheld_.end() && w->second.tuple.seqno < seqno) {
+    withheld_.erase(w);
+  }
   auto it = tuples_.find(TupleRef{owner, std::string(key)});
   if (it == tuples_.end() || it->second->seqno >= seqno) return false;
   remove(it, seqno);
   return true;
 }
 
+bool TupleSpace::acceptWithheld(Withheld&& withheld, std::uint64_t incarnation) {
+  auto& t = withheld.tuple;
+  if (t.owner == self_ || !isValidPeisId(t.owner) || keyProblem(t.key)) return false;
+  if (!noteIncarnation(t.owner, incarnation)) return false;
+  auto ref = refOf(t);
+  if (auto w = withheld_.find(ref); w != withheld_.end() && w->second.tuple.seqno >= t.seqno) {
+    return false;
+  }
+  if (auto it = tuples_.find(ref); it != tuples_.end()) {
+    if (it->second->seqno >= t.seqno) return false;
+    remove(it, t.seqno);  // the owner's value is no longer the one held here
+  }
+  t.data.clear();
+  withheld_.insert_or_assign(std::move(ref), std::move(withheld));
+  return true;
+}
+
+std::optional<TupleSpace::Withheld> TupleSpace::withheld(PeisId owner, std::string_view key) const {
+  auto it = withheld_.find(TupleRef{owner, std::string(key)});
+  if (it == withheld_.end() || it->second.tuple.isExpiredAt(clock_())) return std::nullopt;
+  return it->second;
+}
+
+std::vector<TupleSpace::Withheld> TupleSpace::findWithheld(const Pattern& pattern) const {
+  std::vector<Withheld> found;
+  if (withheld_.empty()) return found;
+  const auto now = clock_();
+  for (const auto& [ref, w] : withheld_) {
+    if (pattern.matches(w.tuple) && !w.tuple.isExpiredAt(now)) found.push_back(w);
+  }
+  return found;
+}
+
+std::string TupleSpace::Withheld::reason(PeisId self) const {
+  const auto head =
+      tuple.fullName() + " is " + std::to_string(dataBytes) + " bytes: too large for ";
+  if (limitedBy == self) {
+    return head + "this PEIS's --peis-max-data (" + std::to_string(limit) + " bytes; PEIS " +
+           std::to_string(self) + ")";
+  }
+  return head + "the --peis-max-data of PEIS " + std::to_string(limitedBy) +
+         " on the way from its owner (" + std::to_string(limit) + " bytes)";
+}
+
 std::size_t TupleSpace::forgetOwner(PeisId owner) {
   if (owner == self_) return 0;
+  for (auto it = withheld_.lower_bound(TupleRef{owner, ""});
+       it != withheld_.end() && it->first.owner == owner;) {
+    it = withheld_.erase(it);
+  }
   std::size_t count = 0;
   for (auto it = tuples_.lower_bound(TupleRef{owner, ""});
        it != tuples_.end() && it->first.owner == owner;) {
@@ -381,6 +476,7 @@ std::size_t TupleSpace::expire() {
     const auto seqno = ref.owner == self_ ? ++ownSeqnos_[ref.key] : it->second->seqno;
     remove(it, seqno);
   }
+  std::erase_if(withheld_, [&](const auto& entry) { return entry.second.tuple.isExpiredAt(now); });
   return expired.size();
 }
 
@@ -482,6 +578,7 @@ void TupleSpace::retarget(const std::shared_ptr<Indirect>& indirect) {
   Delivery delivery;
   delivery.kind_ = EventKind::Changed;
   delivery.tuple_ = target ? get(target->owner, target->key) : nullptr;
+  delivery.incarnation_ = target ? lifeOf(target->owner) : 0;
   delivery.targets_.push_back(Delivery::Target{nullptr, indirect, true, target});
   queue_.push_back(std::move(delivery));
 }
@@ -491,6 +588,7 @@ void TupleSpace::queueEvent(EventKind kind, const TuplePtr& tuple) {
   Delivery delivery;
   delivery.kind_ = kind;
   delivery.tuple_ = tuple;
+  if (!indirects_.empty()) delivery.incarnation_ = lifeOf(tuple->owner);
   for (const auto& [id, entry] : callbacks_) {
     if ((entry->mask & static_cast<unsigned>(kind)) && entry->pattern.matches(*tuple)) {
       delivery.targets_.push_back(Delivery::Target{entry, nullptr, false, std::nullopt});

@@ -7,6 +7,10 @@
 // Callbacks are matched when an event happens and run later, in order, by
 // dispatch() (or by the Kernel via nextDelivery()). A callback may therefore
 // call back into the space without re-entering a running callback.
+//
+// Another owner's seqnos start again at 1 when it restarts, so every
+// comparison of its seqnos is one of (incarnation, seqno): a new incarnation
+// is accepted at once, in the cache and by indirect callbacks alike.
 #pragma once
 
 #include <boost/container/small_vector.hpp>
@@ -73,12 +77,43 @@ class TupleSpace {
   bool erase(std::string_view key);
 
   // --- tuples of other owners, already stamped by them ---------------------
-  // Stores `tuple` unless the cache holds the same or a newer seqno for it;
-  // returns whether it was stored.
-  bool accept(const Tuple& tuple) { return accept(Tuple(tuple)); }
-  bool accept(Tuple&& tuple);
+  // The incarnation (start) of another owner that its cached tuples belong
+  // to; 0 while none is known.
+  std::uint64_t incarnationOf(PeisId owner) const;
+  // Records an owner's incarnation. A newer one than known (the owner
+  // restarted) first drops everything cached of the older one (forgetOwner).
+  // False for an older one: a message of a previous life, to be dropped. 0
+  // means "the one known" (true).
+  bool noteIncarnation(PeisId owner, std::uint64_t incarnation);
+  // Stores `tuple` of owner incarnation `incarnation` (0: the one known)
+  // unless the cache holds the same or a newer value for it; returns whether
+  // it was stored.
+  bool accept(const Tuple& tuple, std::uint64_t incarnation = 0) {
+    return accept(Tuple(tuple), incarnation);
+  }
+  bool accept(Tuple&& tuple, std::uint64_t incarnation = 0);
   // Removes a cached tuple deleted by its owner at `seqno`.
-  bool acceptDelete(PeisId owner, std::string_view key, std::uint64_t seqno);
+  bool acceptDelete(PeisId owner, std::string_view key, std::uint64_t seqno,
+                    std::uint64_t incarnation = 0);
+
+  // A tuple of another owner whose value is over a data limit (this PEIS's
+  // or a relay's): only what is known without the data.
+  struct Withheld {
+    Tuple tuple;  // every field but the data (empty)
+    std::uint32_t dataBytes = 0;
+    PeisId limitedBy = 0;     // the PEIS whose limit the value is over
+    std::uint32_t limit = 0;  // that limit
+    // "OWNER.KEY is N bytes: too large for ... --peis-max-data ..."
+    std::string reason(PeisId self) const;
+  };
+  // Records that the value of (owner, key) at the given seqno is withheld;
+  // like accept, only when newer than what is held. A cached older value is
+  // removed (a delete event): it is no longer the owner's value.
+  bool acceptWithheld(Withheld&& withheld, std::uint64_t incarnation = 0);
+  // The withheld record of (owner, key), unless a value is cached or it expired.
+  std::optional<Withheld> withheld(PeisId owner, std::string_view key) const;
+  // The live withheld records that match `pattern`.
+  std::vector<Withheld> findWithheld(const Pattern& pattern) const;
 
   // Drops every cached tuple of another owner (it restarted or is gone),
   // queueing delete events; returns how many.
@@ -165,6 +200,7 @@ class TupleSpace {
     };
     EventKind kind_ = EventKind::Changed;
     TuplePtr tuple_;
+    std::uint64_t incarnation_ = 0;  // of the tuple's owner when it happened
     boost::container::small_vector<Target, 1> targets_;
   };
   std::optional<Delivery> nextDelivery();
@@ -187,6 +223,7 @@ class TupleSpace {
   void remove(std::map<TupleRef, TuplePtr>::iterator it, std::uint64_t seqno);
   void queueEvent(EventKind kind, const TuplePtr& tuple);
   void retarget(const std::shared_ptr<Indirect>& indirect);
+  std::uint64_t lifeOf(PeisId owner) const { return owner == self_ ? 0 : incarnationOf(owner); }
   void checkData(std::size_t bytes) const;
   TuplePtr live(const TuplePtr& tuple) const;
 
@@ -203,6 +240,10 @@ class TupleSpace {
   std::map<std::string, std::uint64_t, std::less<>> ownSeqnos_;
   std::map<std::string, std::uint64_t, std::less<>>::iterator lastSeqno_;
   bool hasLastSeqno_ = false;
+  std::map<PeisId, std::uint64_t> incarnations_;  // of other owners
+  PeisId lastLifeOwner_ = 0;                      // the entry of incarnations_ noted last
+  std::uint64_t lastLife_ = 0;
+  std::map<TupleRef, Withheld> withheld_;
   std::map<CallbackId, std::shared_ptr<Entry>> callbacks_;
   std::map<CallbackId, std::shared_ptr<Indirect>> indirects_;
   std::deque<Delivery> queue_;

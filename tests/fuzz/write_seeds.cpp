@@ -68,6 +68,8 @@ int main(int argc, char** argv) {
       {"write-append", body(RoutedMessage{env, Write{6, WriteOp::Append, 3u, 0,
                                                      tuple(peis::Encoding::Ascii, "+")}})},
       {"write-result", body(RoutedMessage{env, WriteResult{6, 7, 0, "conflict"}})},
+      {"withheld", body(RoutedMessage{
+                       env, TupleWithheld{70, 3, 1000, 5000, tuple(peis::Encoding::Ascii, "")}})},
   };
   for (const auto& [name, bytes] : seeds) {
     std::ofstream file(std::string(argv[1]) + "/" + name, std::ios::binary);

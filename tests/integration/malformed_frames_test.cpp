@@ -66,7 +66,8 @@ std::string frame(const peis::wire::RoutedMessage& message) {
   return peis::wire::encodeFrame(message);
 }
 
-std::string hello(const std::string& ecology, peis::PeisId id, std::uint16_t version = 1) {
+std::string hello(const std::string& ecology, peis::PeisId id,
+                  std::uint16_t version = peis::wire::kVersion) {
   peis::wire::Hello h;
   h.version = version;
   h.ecology = ecology;

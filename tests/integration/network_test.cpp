@@ -26,6 +26,7 @@
 
 using namespace std::chrono_literals;
 using peis::PeisId;
+using peis::test::cliArgs;
 using peis::test::Process;
 using peis::test::uniqueEcology;
 using peis::test::waitFor;
@@ -46,14 +47,6 @@ std::optional<NodeInfo> parseNodeLine(const std::string& text) {
   if (!std::regex_search(text, match, line)) return std::nullopt;
   return NodeInfo{static_cast<PeisId>(std::stol(match[1])),
                   static_cast<std::uint16_t>(std::stoul(match[2]))};
-}
-
-std::vector<std::string> cliArgs(const std::string& ecology, std::vector<std::string> args) {
-  std::vector<std::string> argv{peis::test::peisCliPath()};
-  argv.insert(argv.end(), args.begin(), args.end());
-  argv.push_back("--peis-ecology");
-  argv.push_back(ecology);
-  return argv;
 }
 
 // Starts `peis node` in `ecology` with extra flags.

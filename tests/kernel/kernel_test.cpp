@@ -945,3 +945,28 @@ TEST_CASE("Kernel indirect subscription delivers the new target's value at once"
   CHECK(values ==
         std::vector<std::string>{"src.one=1", "src.one=2", "src.two=other", "src.two=again"});
 }
+
+// Durations longer than a timer can count (issue 9): they used to wrap into
+// the past, so the timer fired at once (and a periodic one without end).
+TEST_CASE("timers and waits longer than a timer's range do not fire at once", "[unit][kernel]") {
+  peis::Kernel k(testOptions());
+  std::atomic<int> farFired{0};
+  std::atomic<bool> nearFired{false};
+  std::atomic<int> farWhenNear{-1};
+  k.every(std::chrono::milliseconds::max(), [&] { ++farFired; });
+  k.after(std::chrono::milliseconds::max() - 1ms, [&] { ++farFired; });
+  k.after(20ms, [&] {
+    farWhenNear = farFired.load();
+    nearFired = true;
+  });
+  REQUIRE(waitFor([&] { return nearFired.load(); }));
+  CHECK(farWhenNear == 0);
+
+  // A blocking get with the longest wait still waits for the value.
+  k.after(50ms, [&] { k.set("late", "here"); });
+  const auto late = k.get(kId, "late", std::chrono::milliseconds::max());
+  REQUIRE(late);
+  CHECK(late->data == "here");
+  k.after(50ms, [&] { k.quit("the test is over"); });
+  CHECK(k.runFor(std::chrono::milliseconds::max()));
+}

@@ -303,6 +303,14 @@ TEST_CASE("Options::validate checks a struct filled in code", "[unit][options]")
       {"empty ecology", [](Options& o) { o.ecology = ""; }, "--peis-ecology"},
       {"data limit", [](Options& o) { o.maxDataBytes = peis::kMaxDataBytes + 1; },
        "--peis-max-data"},
+      // Durations a timer or a u32 wire field could not hold (issue 9).
+      {"liveness of centuries", [](Options& o) { o.liveness = std::chrono::milliseconds::max(); },
+       "--peis-liveness-ms"},
+      {"write timeout over u32 ms",
+       [](Options& o) { o.writeTimeout = std::chrono::milliseconds(0x100000000LL); },
+       "writeTimeout"},
+      {"lease over u32 ms", [](Options& o) { o.subscriptionLease = std::chrono::hours(24 * 365); },
+       "subscriptionLease"},
   };
   for (const auto& c : cases) {
     INFO("case: " << c.what);

@@ -78,7 +78,7 @@ TEST_CASE("beacons round-trip and every malformed beacon is rejected", "[unit][o
     return decodeBeacon(copy);
   };
   CHECK_FALSE(corrupt(0, 'X'));               // magic
-  CHECK_FALSE(corrupt(5, 2));                 // version 2
+  CHECK_FALSE(corrupt(5, 1));                 // version 1 (the protocol is version 2)
   CHECK_FALSE(corrupt(11, '\x80'));           // id becomes negative
   CHECK_FALSE(corrupt(bytes.size() - 1, 2));  // flags > 1
   auto noPort = beacon;

@@ -748,3 +748,139 @@ TEST_CASE("replication subscriber side", "[unit][replication]") {
     CHECK(unsubscribed == std::set<PeisId>{2, 3});
   }
 }
+
+// A publisher restarted with the same id numbers its values from 1 again: its
+// new life must reach an indirect callback at once, not once its seqnos pass
+// those of the old life (issue 9).
+TEST_CASE("replication: a restarted owner's values reach an indirect callback at once",
+          "[unit][replication]") {
+  Fixture f;
+  f.replication.onPeerUp(2, 20);
+  f.space.setMeta("mi-x", TupleRef{2, "x"});
+  std::vector<std::string> seen;
+  f.space.addIndirectCallback(kSelf, "mi-x", peis::kOnChange,
+                              [&](EventKind, const Tuple& t) { seen.push_back(t.data); });
+  for (std::uint64_t n = 1; n <= 50; ++n) {
+    REQUIRE(f.replication.onUpdate(
+        2, wire::TupleUpdate{20, remoteTuple(2, "x", "old-" + std::to_string(n), n)}));
+  }
+  f.space.dispatch();
+  REQUIRE_FALSE(seen.empty());
+  CHECK(seen.back() == "old-50");
+  seen.clear();
+
+  SECTION("the new life is learnt from its first update") {
+    CHECK(f.replication.onUpdate(2, wire::TupleUpdate{30, remoteTuple(2, "x", "new-1", 1)}));
+    f.space.dispatch();
+    CHECK(seen == std::vector<std::string>{"new-1"});
+    // A value of the old life still in flight is dropped and not delivered.
+    CHECK_FALSE(f.replication.onUpdate(2, wire::TupleUpdate{20, remoteTuple(2, "x", "old", 51)}));
+    CHECK(f.replication.onUpdate(2, wire::TupleUpdate{30, remoteTuple(2, "x", "new-2", 2)}));
+    f.space.dispatch();
+    CHECK(seen == std::vector<std::string>{"new-1", "new-2"});
+  }
+
+  SECTION("the new life is learnt from the route first") {
+    f.replication.onPeerUp(2, 30);
+    CHECK_FALSE(f.space.get(2, "x"));  // the old life's value is gone
+    CHECK(f.replication.onUpdate(2, wire::TupleUpdate{30, remoteTuple(2, "x", "new-1", 1)}));
+    f.space.dispatch();
+    CHECK(seen == std::vector<std::string>{"new-1"});
+  }
+
+  SECTION("the old life's value had expired before the restart") {
+    auto expiring = remoteTuple(2, "x", "old-51", 51);
+    expiring.ts_expire = f.clock.now + 1s;
+    REQUIRE(f.replication.onUpdate(2, wire::TupleUpdate{20, std::move(expiring)}));
+    f.clock.advance(2s);
+    CHECK(f.space.expire() == 1);
+    f.space.dispatch();
+    seen.clear();
+    CHECK(f.replication.onUpdate(2, wire::TupleUpdate{30, remoteTuple(2, "x", "new-1", 1)}));
+    f.space.dispatch();
+    CHECK(seen == std::vector<std::string>{"new-1"});
+  }
+
+  SECTION("a re-created value of the same life is still delivered once") {
+    CHECK(f.replication.onDeleted(2, wire::TupleDeleted{20, 2, "x", 51}));
+    CHECK(f.replication.onUpdate(2, wire::TupleUpdate{20, remoteTuple(2, "x", "again", 52)}));
+    CHECK_FALSE(f.replication.onUpdate(2, wire::TupleUpdate{20, remoteTuple(2, "x", "dup", 52)}));
+    f.space.dispatch();
+    CHECK(seen == std::vector<std::string>{"again"});
+  }
+}
+
+// A value over a subscriber's data limit (issue 9): the owner sends what the
+// subscriber needs to know instead of a frame it would have to drop.
+TEST_CASE("replication: a value over the subscriber's limit is sent as TupleWithheld",
+          "[unit][replication]") {
+  Fixture f;
+  f.space.set("big", std::string(5000, 'x'));
+  f.space.set("small", "fits");
+  f.take();
+  auto limited = subscribeMsg(1, "**");
+  limited.maxDataBytes = 1000;
+  f.replication.onSubscribe(9, limited, f.now);
+  auto outbox = f.take();
+  CHECK(updatedKeys(outbox, 9) == std::multiset<std::string>{"small"});
+  std::vector<wire::TupleWithheld> notices;
+  for (const auto& out : outbox) {
+    if (const auto* w = bodyAs<wire::TupleWithheld>(out)) {
+      CHECK(out.destination == 9);
+      notices.push_back(*w);
+    }
+  }
+  REQUIRE(notices.size() == 1);
+  CHECK(notices[0].ownerIncarnation == kIncarnation);
+  CHECK(notices[0].limitedBy == 9);
+  CHECK(notices[0].limit == 1000);
+  CHECK(notices[0].dataBytes == 5000);
+  CHECK(notices[0].tuple.key == "big");
+  CHECK(notices[0].tuple.seqno == 1);
+  CHECK(notices[0].tuple.data.empty());
+
+  // Changes follow the same rule; a subscriber without a limit gets the value.
+  f.replication.onSubscribe(8, subscribeMsg(2, "**"), f.now);
+  f.take();
+  f.space.set("big", std::string(6000, 'y'));
+  outbox = f.take();
+  CHECK(updatedKeys(outbox, 8) == std::multiset<std::string>{"big"});
+  CHECK(updatedKeys(outbox, 9).empty());
+  std::size_t toNine = 0;
+  for (const auto& out : outbox) {
+    if (const auto* w = bodyAs<wire::TupleWithheld>(out)) {
+      CHECK(out.destination == 9);
+      CHECK(w->dataBytes == 6000);
+      ++toNine;
+    }
+  }
+  CHECK(toNine == 1);
+}
+
+TEST_CASE("replication: the subscriber side takes a TupleWithheld from the owner or a relay",
+          "[unit][replication]") {
+  Fixture f;
+  f.replication.onPeerUp(2, 20);
+  f.replication.subscribe(Pattern("**", PeisId{2}));
+  const auto sent = f.take();
+  REQUIRE(sent.size() == 1);
+  // Our Subscribe tells the owner our limit.
+  CHECK(bodyAs<wire::Subscribe>(sent[0])->maxDataBytes == peis::kDefaultMaxDataBytes);
+
+  REQUIRE(f.replication.onUpdate(2, wire::TupleUpdate{20, remoteTuple(2, "big", "small", 1)}));
+  auto head = remoteTuple(2, "big", "", 2);
+  CHECK(f.replication.onWithheld(wire::TupleWithheld{20, 5, 1000, 5000, head}));
+  CHECK_FALSE(f.space.get(2, "big"));
+  REQUIRE(f.space.withheld(2, "big"));
+  CHECK(f.space.withheld(2, "big")->limitedBy == 5);
+  const auto before = f.replication.staleDropped();
+  CHECK_FALSE(f.replication.onWithheld(wire::TupleWithheld{19, 5, 1000, 5000, head}));
+  CHECK(f.replication.staleDropped() == before + 1);
+
+  // A renewal counts what it knows of, held or withheld: no resync for it.
+  f.replication.renew();
+  const auto renewals = f.take();
+  REQUIRE(renewals.size() == 1);
+  CHECK(bodyAs<wire::Subscribe>(renewals[0])->knownCount == 1);
+  CHECK(bodyAs<wire::Subscribe>(renewals[0])->knownSeqnoSum == 2);
+}

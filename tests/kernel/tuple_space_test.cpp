@@ -977,3 +977,131 @@ TEST_CASE("a stream to one key, then its entry erased: nothing stale is remember
   CHECK(space.set("brief", "z")->seqno == 4);
   CHECK(space.get(kSelf, "brief")->data == "z");
 }
+
+// Another owner's incarnations (issue 9): a restarted owner's seqnos start at
+// 1 again and are newer than everything of its previous life.
+TEST_CASE("a newer incarnation of an owner is accepted at once, an older one never",
+          "[unit][tuplespace]") {
+  ManualClock clock;
+  TupleSpace space(kSelf, [&] { return clock.now; });
+  Recorder r;
+  space.addCallback(Pattern("**"), peis::kOnAny, r.make("all"));
+
+  CHECK(space.incarnationOf(2) == 0);
+  REQUIRE(space.accept(remoteTuple(2, "a", "old", 40), 100));
+  REQUIRE(space.accept(remoteTuple(2, "b", "old", 7), 100));
+  CHECK(space.incarnationOf(2) == 100);
+  CHECK_FALSE(space.accept(remoteTuple(2, "a", "stale", 39), 100));  // same life: seqno order
+
+  // The owner restarted: its first value is newer than the old life's 40.
+  CHECK(space.accept(remoteTuple(2, "a", "new", 1), 200));
+  CHECK(space.incarnationOf(2) == 200);
+  CHECK(space.get(2, "a")->data == "new");
+  CHECK_FALSE(space.get(2, "b"));  // gone with the old life
+  // A message of the old life still in flight changes nothing.
+  CHECK_FALSE(space.accept(remoteTuple(2, "b", "late", 8), 100));
+  CHECK_FALSE(space.acceptDelete(2, "a", 41, 100));
+  CHECK(space.get(2, "a")->data == "new");
+  CHECK_FALSE(space.noteIncarnation(2, 100));
+  CHECK(space.noteIncarnation(2, 0));  // 0: the one known
+
+  space.dispatch();
+  // The old life's tuples were deleted (with their own seqnos) before the new value.
+  const std::vector<Seen> expected = {{"all", EventKind::Changed, "2.a", "old", 40},
+                                      {"all", EventKind::Changed, "2.b", "old", 7},
+                                      {"all", EventKind::Deleted, "2.a", "old", 40},
+                                      {"all", EventKind::Deleted, "2.b", "old", 7},
+                                      {"all", EventKind::Changed, "2.a", "new", 1}};
+  CHECK(r.seen == expected);
+}
+
+TEST_CASE("an indirect callback follows its target's owner into a new life", "[unit][tuplespace]") {
+  ManualClock clock;
+  TupleSpace space(kSelf, [&] { return clock.now; });
+  space.setMeta("mi-x", peis::TupleRef{2, "x"});
+  std::vector<std::string> seen;
+  space.addIndirectCallback(kSelf, "mi-x", peis::kOnChange,
+                            [&](EventKind, const Tuple& t) { seen.push_back(t.data); });
+  REQUIRE(space.accept(remoteTuple(2, "x", "old-9", 9), 100));
+  space.dispatch();
+  CHECK(seen == std::vector<std::string>{"old-9"});
+
+  // Learnt before any value of the new life (the route announced it).
+  CHECK(space.noteIncarnation(2, 200));
+  REQUIRE(space.accept(remoteTuple(2, "x", "new-1", 1), 200));
+  CHECK_FALSE(space.accept(remoteTuple(2, "x", "new-1 again", 1), 200));
+  REQUIRE(space.accept(remoteTuple(2, "x", "new-2", 2), 200));
+  space.dispatch();
+  CHECK(seen == std::vector<std::string>{"old-9", "new-1", "new-2"});
+}
+
+// A value over a data limit is known by its fields, not held (issue 9).
+TEST_CASE("withheld values: recorded, replaced in seqno order, forgotten with their owner",
+          "[unit][tuplespace]") {
+  ManualClock clock;
+  TupleSpace space(kSelf, [&] { return clock.now; });
+  Recorder r;
+  space.addCallback(Pattern("**"), peis::kOnAny, r.make("all"));
+  auto withheld = [](std::uint64_t seqno, peis::PeisId by) {
+    return TupleSpace::Withheld{remoteTuple(2, "big", "", seqno), 5000, by, 1000};
+  };
+
+  REQUIRE(space.accept(remoteTuple(2, "big", "small", 3), 100));
+  CHECK_FALSE(space.acceptWithheld(withheld(3, kSelf), 100));  // not newer than the value
+  REQUIRE(space.acceptWithheld(withheld(4, kSelf), 100));
+  CHECK_FALSE(space.get(2, "big"));  // the older value is no longer the owner's
+  REQUIRE(space.withheld(2, "big"));
+  CHECK(space.withheld(2, "big")->dataBytes == 5000);
+  CHECK(space.withheld(2, "big")->reason(kSelf) ==
+        "2.big is 5000 bytes: too large for this PEIS's --peis-max-data (1000 bytes; PEIS 7)");
+  CHECK(withheld(4, 9).reason(kSelf) ==
+        "2.big is 5000 bytes: too large for the --peis-max-data of PEIS 9 on the way from its "
+        "owner (1000 bytes)");
+  CHECK(space.findWithheld(Pattern("**", 2)).size() == 1);
+  CHECK(space.findWithheld(Pattern("**", 3)).empty());
+  CHECK_FALSE(space.acceptWithheld(withheld(4, kSelf), 100));
+  CHECK_FALSE(space.accept(remoteTuple(2, "big", "older", 4), 100));
+
+  // A newer value that fits replaces the record.
+  REQUIRE(space.accept(remoteTuple(2, "big", "fits", 5), 100));
+  CHECK_FALSE(space.withheld(2, "big"));
+  CHECK(space.get(2, "big")->data == "fits");
+
+  // A deletion, expiry and the owner's restart end a record too.
+  REQUIRE(space.acceptWithheld(withheld(6, kSelf), 100));
+  CHECK_FALSE(space.acceptDelete(2, "big", 7));  // nothing cached to delete...
+  CHECK_FALSE(space.withheld(2, "big"));         // ...but the record is over
+  auto expiring = withheld(8, kSelf);
+  expiring.tuple.ts_expire = clock.now + 1s;
+  REQUIRE(space.acceptWithheld(std::move(expiring), 100));
+  clock.advance(2s);
+  CHECK_FALSE(space.withheld(2, "big"));
+  space.expire();
+  REQUIRE(space.acceptWithheld(withheld(9, kSelf), 100));
+  CHECK(space.withheld(2, "big"));
+  CHECK(space.noteIncarnation(2, 200));
+  CHECK_FALSE(space.withheld(2, "big"));
+  CHECK_FALSE(space.acceptWithheld(withheld(10, kSelf), 100));  // of the old life
+  CHECK_FALSE(space.acceptWithheld(TupleSpace::Withheld{remoteTuple(kSelf, "mine", "", 1)}, 0));
+
+  space.dispatch();
+  // Each cached value a newer record replaced left with a delete event.
+  const std::vector<Seen> expected = {{"all", EventKind::Changed, "2.big", "small", 3},
+                                      {"all", EventKind::Deleted, "2.big", "small", 4},
+                                      {"all", EventKind::Changed, "2.big", "fits", 5},
+                                      {"all", EventKind::Deleted, "2.big", "fits", 6}};
+  CHECK(r.seen == expected);
+}
+
+TEST_CASE("a ttl too long for a timestamp saturates instead of wrapping into the past",
+          "[unit][tuplespace]") {
+  ManualClock clock;
+  TupleSpace space(kSelf, [&] { return clock.now; });
+  peis::WriteOptions longest;
+  longest.ttl = std::chrono::microseconds::max();
+  const auto tuple = space.set("k", "v", longest);
+  CHECK(tuple->ts_expire == Timestamp::max());
+  CHECK(space.get(kSelf, "k"));
+  CHECK(space.expire() == 0);
+  CHECK(space.nextExpiry() == Timestamp::max());
+}

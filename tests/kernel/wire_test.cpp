@@ -141,6 +141,10 @@ std::vector<std::pair<std::string, std::string>> sampleFrames() {
   frames.emplace_back(
       "Write", frameOf(RoutedMessage{env, Write{9, WriteOp::Append, 41u, 500, sampleTuple()}}));
   frames.emplace_back("WriteResult", frameOf(RoutedMessage{env, WriteResult{9, 7, 0, "conflict"}}));
+  auto head = sampleTuple();
+  head.data.clear();
+  frames.emplace_back("TupleWithheld",
+                      frameOf(RoutedMessage{env, TupleWithheld{70, 3, 1000, 5000, head}}));
   return frames;
 }
 
@@ -157,7 +161,7 @@ TEST_CASE("wire: link messages round-trip", "[unit][wire]") {
     h.incarnation = ~0ull;
     h.id = kMaxPeisId;
     checkLinkRoundTrip(h);
-    h.version = 2;  // the decoder passes other versions on; the handshake refuses them
+    h.version = 1;  // the decoder passes other versions on; the handshake refuses them
     checkLinkRoundTrip(h);
   }
   SECTION("Ping and Pong") {
@@ -182,6 +186,8 @@ TEST_CASE("wire: routed messages round-trip", "[unit][wire]") {
     checkRoutedRoundTrip(RoutedMessage{env, Subscribe{1, 6000, PeisId{7}, "a.b"}});
     checkRoutedRoundTrip(RoutedMessage{env, Subscribe{~0ull, 0, std::nullopt, "*.x.**"}});
     checkRoutedRoundTrip(RoutedMessage{Envelope{1, kMaxPeisId, 1}, Subscribe{2, ~0u, 1, "**"}});
+    Subscribe limited{3, 6000, PeisId{7}, "a.b", 2, 9, 0};  // a limit of 0 bytes is a limit
+    checkRoutedRoundTrip(RoutedMessage{env, limited});
   }
   SECTION("Unsubscribe") {
     checkRoutedRoundTrip(RoutedMessage{env, Unsubscribe{0}});
@@ -218,9 +224,17 @@ TEST_CASE("wire: routed messages round-trip", "[unit][wire]") {
           auto t = sampleTuple();
           t.data = std::string("x\0y", 3);
           checkRoutedRoundTrip(RoutedMessage{env, Write{77, op, ifSeqno, ttl, t}});
+          checkRoutedRoundTrip(RoutedMessage{env, Write{77, op, ifSeqno, ttl, t, ~0u}});
         }
       }
     }
+  }
+  SECTION("TupleWithheld: the tuple without its data, with the size it has") {
+    auto head = sampleTuple();
+    head.data.clear();
+    checkRoutedRoundTrip(RoutedMessage{env, TupleWithheld{70, 3, 1000, 5000, head}});
+    checkRoutedRoundTrip(
+        RoutedMessage{env, TupleWithheld{~0ull, kMaxPeisId, 0, 0x7fffffffu, head}});
   }
   SECTION("WriteResult") {
     checkRoutedRoundTrip(RoutedMessage{env, WriteResult{1, 0, 5, ""}});
@@ -253,7 +267,7 @@ TEST_CASE("wire: byte layout is big-endian and exact", "[unit][wire]") {
     h.auth = "";
     CHECK(frameOf(LinkMessage{h}) == hex("00 00 00 21 01"
                                          "50 45 49 53"              // magic "PEIS"
-                                         "00 01"                    // version
+                                         "00 02"                    // version
                                          "03 65 63 6f"              // str8 "eco"
                                          "00 00 00 07"              // id
                                          "11 22 33 44 55 66 77 88"  // incarnation
@@ -272,13 +286,14 @@ TEST_CASE("wire: byte layout is big-endian and exact", "[unit][wire]") {
   }
   SECTION("Subscribe without owner writes owner 0") {
     CHECK(frameOf(RoutedMessage{Envelope{2, 3, 4}, Subscribe{5, 6000, std::nullopt, "a.*"}}) ==
-          hex("00 00 00 2c 10 00 00 00 02 00 00 00 03 04"
-              "00 00 00 00 00 00 00 05"     // subscription
-              "00 00 17 70"                 // lease 6000
-              "00 00 00 00 00"              // no owner, owner 0
-              "00 03 61 2e 2a"              // str16 "a.*"
-              "00 00 00 00"                 // known count
-              "00 00 00 00 00 00 00 00"));  // known seqno sum
+          hex("00 00 00 30 10 00 00 00 02 00 00 00 03 04"
+              "00 00 00 00 00 00 00 05"  // subscription
+              "00 00 17 70"              // lease 6000
+              "00 00 00 00 00"           // no owner, owner 0
+              "00 03 61 2e 2a"           // str16 "a.*"
+              "00 00 00 00"              // known count
+              "00 00 00 00 00 00 00 00"  // known seqno sum
+              "ff ff ff ff"));           // max data: none announced
   }
   SECTION("TupleUpdate with its tuple") {
     Tuple t;
@@ -310,15 +325,37 @@ TEST_CASE("wire: byte layout is big-endian and exact", "[unit][wire]") {
     t.creator = 3;
     t.key = "k";
     t.mimetype = "";
-    const auto frame =
-        frameOf(RoutedMessage{Envelope{3, 2, 32}, Write{0x10, WriteOp::Erase, 0x0fu, 256, t}});
+    const auto frame = frameOf(
+        RoutedMessage{Envelope{3, 2, 32}, Write{0x10, WriteOp::Erase, 0x0fu, 256, t, 5000}});
     const auto body = bodyOf(frame);
-    // type | envelope (9) | request (8) | op | has if | if-seqno | ttl
+    // type | envelope (9) | request (8) | op | has if | if-seqno | ttl | wait | tuple
     CHECK(body.substr(0, 1) == hex("14"));
     CHECK(body.substr(10, 8) == hex("00 00 00 00 00 00 00 10"));
     CHECK(body.substr(18, 2) == hex("02 01"));
     CHECK(body.substr(20, 8) == hex("00 00 00 00 00 00 00 0f"));
     CHECK(body.substr(28, 8) == hex("00 00 00 00 00 00 01 00"));
+    CHECK(body.substr(36, 4) == hex("00 00 13 88"));  // wait 5000 ms
+    CHECK(body.substr(40, 4) == hex("00 00 00 02"));  // the tuple's owner
+  }
+  SECTION("TupleWithheld") {
+    Tuple t;
+    t.owner = 2;
+    t.creator = 3;
+    t.key = "k";
+    t.mimetype = "m";
+    t.seqno = 9;
+    CHECK(frameOf(RoutedMessage{Envelope{9, 5, 32}, TupleWithheld{10, 9, 1000, 70000, t}}) ==
+          hex("00 00 00 4c 16 00 00 00 09 00 00 00 05 20"
+              "00 00 00 00 00 00 00 0a"  // owner incarnation
+              "00 00 00 09"              // limited by PEIS 9
+              "00 00 03 e8"              // its limit, 1000
+              "00 00 00 02 00 00 00 03"  // owner, creator
+              "00 01 6b 01 6d 00"        // str16 "k", str8 "m", encoding ascii
+              "00 00 00 00 00 00 00 00"  // ts_write
+              "00 00 00 00 00 00 00 00"  // ts_user
+              "00 00 00 00 00 00 00 00"  // ts_expire
+              "00 00 00 00 00 00 00 09"  // seqno
+              "00 01 11 70"));           // the data's length, 70000; no data bytes
   }
   SECTION("TupleDeleted and WriteResult") {
     CHECK(frameOf(RoutedMessage{Envelope{2, 3, 1}, TupleDeleted{1, 2, "ab", 0x0304}}) ==
@@ -378,7 +415,7 @@ TEST_CASE("wire: malformed frames are rejected with a reason", "[unit][wire]") {
   SECTION("empty frame") { CHECK(rejectBody(std::string_view{}) == "empty frame"); }
 
   SECTION("unknown message types") {
-    for (int type : {0, 6, 7, 15, 22, 23, 127, 255}) {
+    for (int type : {0, 6, 7, 15, 23, 24, 127, 255}) {
       INFO("type " << type);
       std::string body(1, static_cast<char>(type));
       CHECK(rejectBody(body).find("unknown message type") != std::string::npos);
@@ -623,4 +660,83 @@ TEST_CASE("wire: a TupleUpdate encoded without its data, followed by the data, i
   CHECK(head.substr(6) + t.data == whole);
   CHECK(whole.size() == tupleUpdateFrameBytes(t));
 }
+
+TEST_CASE("wire: an oversized frame is read from its head and answered", "[unit][wire]") {
+  constexpr std::size_t kSmall = 100;
+  auto t = sampleTuple();
+  t.data = std::string(5000, 'x');
+
+  SECTION("a Write, for the owner and for a relay on the way") {
+    const auto frame = frameOf(
+        RoutedMessage{Envelope{9, 3, 30}, Write{77, WriteOp::Set, std::nullopt, 0, t, 5000}});
+    const auto body = bodyOf(frame);
+    CHECK_FALSE(decodeOversize(body, kLimit * 10));  // fits: not oversized
+    // Its first kOversizeHeadBytes (or all of a shorter frame) are enough.
+    const auto oversize = decodeOversize(body.substr(0, kOversizeHeadBytes), kSmall);
+    REQUIRE(oversize);
+    CHECK(oversize->type == MessageType::Write);
+    CHECK(oversize->envelope == Envelope{9, 3, 30});
+    CHECK(oversize->request == 77);
+    CHECK(oversize->dataBytes == 5000);
+    CHECK(oversize->tuple.key == t.key);
+    CHECK(oversize->tuple.data.empty());
+
+    const auto byOwner = answerOversize(*oversize, 3, kSmall);
+    CHECK(byOwner.envelope.source == 3);
+    CHECK(byOwner.envelope.destination == 9);
+    const auto& result = std::get<WriteResult>(byOwner.body);
+    CHECK(result.request == 77);
+    CHECK(result.status == static_cast<int>(ErrorCode::TooLarge) + 1);
+    CHECK(result.message ==
+          "data is 5000 bytes; this PEIS accepts at most 100 (see --peis-max-data)");
+    checkRoutedRoundTrip(byOwner);
+
+    const auto byRelay = answerOversize(*oversize, 5, kSmall);
+    CHECK(byRelay.envelope.source == 5);
+    CHECK(byRelay.envelope.destination == 9);
+    CHECK(std::get<WriteResult>(byRelay.body).message ==
+          "data is 5000 bytes; PEIS 5 on the route to PEIS 3 accepts at most 100 (see "
+          "--peis-max-data)");
+  }
+
+  SECTION("a TupleUpdate, for the subscriber and for a relay on the way") {
+    const auto frame = frameOf(RoutedMessage{Envelope{7, 3, 30}, TupleUpdate{70, t}});
+    const auto oversize = decodeOversize(bodyOf(frame).substr(0, kOversizeHeadBytes), kSmall);
+    REQUIRE(oversize);
+    CHECK(oversize->type == MessageType::TupleUpdate);
+    CHECK(oversize->ownerIncarnation == 70);
+    auto head = t;
+    head.data.clear();
+    CHECK(oversize->tuple == head);
+
+    const auto here = answerOversize(*oversize, 3, kSmall);
+    CHECK(here.envelope.source == 7);  // stands in for the owner's update
+    CHECK(here.envelope.destination == 3);
+    CHECK(std::get<TupleWithheld>(here.body) == TupleWithheld{70, 3, kSmall, 5000, head});
+
+    const auto onTheWay = answerOversize(*oversize, 5, kSmall);
+    CHECK(onTheWay.envelope.source == 5);
+    CHECK(onTheWay.envelope.destination == 3);
+    CHECK(std::get<TupleWithheld>(onTheWay.body) == TupleWithheld{70, 5, kSmall, 5000, head});
+    checkRoutedRoundTrip(onTheWay);
+  }
+
+  SECTION("anything else is not an oversized frame") {
+    CHECK_FALSE(decodeOversize({}, kSmall));
+    CHECK_FALSE(decodeOversize(bodyOf(frameOf(LinkMessage{Ping{1}})), kSmall));
+    CHECK_FALSE(decodeOversize(
+        bodyOf(frameOf(RoutedMessage{sampleEnvelope(), Subscribe{1, 1, 7, "a"}})), kSmall));
+    const auto frame = frameOf(RoutedMessage{Envelope{7, 3, 30}, TupleUpdate{70, t}});
+    auto body = std::string(bodyOf(frame));
+    // Every truncation before the data length: too short to answer.
+    const auto headBytes = body.size() - t.data.size();
+    for (std::size_t n = 0; n < headBytes; ++n) {
+      INFO("truncated to " << n);
+      CHECK_FALSE(decodeOversize(std::string_view(body).substr(0, n), kSmall));
+    }
+    body[4] = '\0';  // the source id, 7, becomes 0: invalid
+    CHECK_FALSE(decodeOversize(body, kSmall));
+  }
+}
+
 }  // namespace peis::wire

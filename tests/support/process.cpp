@@ -171,6 +171,14 @@ std::string peisCliPath() {
 #endif
 }
 
+std::vector<std::string> cliArgs(const std::string& ecology, std::vector<std::string> args) {
+  std::vector<std::string> argv{peisCliPath()};
+  argv.insert(argv.end(), args.begin(), args.end());
+  argv.push_back("--peis-ecology");
+  argv.push_back(ecology);
+  return argv;
+}
+
 std::string uniqueEcology(const std::string& tag) {
   return "it-" + tag + "-" + std::to_string(getpid());
 }

@@ -55,6 +55,8 @@ class Process {
 
 // The `peis` command-line tool built with these tests.
 std::string peisCliPath();
+// argv for `peis ARGS... --peis-ecology ECOLOGY`.
+std::vector<std::string> cliArgs(const std::string& ecology, std::vector<std::string> args);
 
 // An ecology name of its own for one test: "it-<tag>-<pid>", so tests that
 // run in parallel (or in other test programs) never meet.

@@ -146,6 +146,10 @@ class Network::Impl {
 
   // Called by links.
   void onFrame(const std::shared_ptr<Link>& link, std::string_view frame);
+  // A routed frame whose data is over this PEIS's limit (its whole frame or
+  // its first kOversizeHeadBytes): answered, not dropped (protocol.md §2.1).
+  // False when it is not one (malformed).
+  bool answerOversize(const std::shared_ptr<Link>& link, std::string_view head);
   void onClosed(const std::shared_ptr<Link>& link, const std::string& reason);
   // A link finished a write; `backlog` bytes are still queued on it.
   void onWritten(std::size_t backlog);
@@ -184,6 +188,10 @@ class Network::Impl {
     SteadyClock::time_point arrived;
   };
   std::deque<Held> held_;
+  // Answers to frames over the data limit (answerOversize) for a PEIS with
+  // no route yet (its first frames can be faster than its route, as above):
+  // sent once it has one, dropped after kHoldFor.
+  std::deque<std::pair<wire::RoutedMessage, SteadyClock::time_point>> heldAnswers_;
   // Messages for this PEIS, handed over together once a read is parsed.
   std::vector<wire::RoutedMessage> inbox_;
   // Two buffers take turns so a stream of reads allocates no new vector.
@@ -343,6 +351,8 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   }
 
   std::size_t backlog() const { return inFlight_ + queued_; }
+  // Part of a frame has arrived and the rest has not (a big frame in transit).
+  bool midFrame() const { return inEnd_ > inPos_ || skip_ > 0; }
   bool bytesWaiting() {
     boost::system::error_code ec;
     return socket_.available(ec) > 0 && !ec;
@@ -496,8 +506,24 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   void parse() {
     while (!closed_) {
       const std::size_t available = inEnd_ - inPos_;
+      if (skip_ > 0) {  // the rest of an oversized frame, already answered
+        const auto n = std::min(skip_, available);
+        inPos_ += n;
+        skip_ -= n;
+        if (skip_ > 0) break;
+        continue;
+      }
       if (available < wire::kFrameHeaderBytes) break;
       const auto length = wire::frameLength(std::string_view(in_.get() + inPos_, available));
+      if (length > net_.maxFrameBytes() && length <= wire::kLargestFrameBytes) {
+        // Over this PEIS's limit, not the protocol's: answer it from its head.
+        const auto head = std::min<std::size_t>(length, wire::kOversizeHeadBytes);
+        if (available < wire::kFrameHeaderBytes + head) break;
+        const auto frame = std::string_view(in_.get() + inPos_ + wire::kFrameHeaderBytes, head);
+        inPos_ += wire::kFrameHeaderBytes + head;
+        skip_ = length - head;
+        if (net_.answerOversize(shared_from_this(), frame)) continue;
+      }
       if (length == 0 || length > net_.maxFrameBytes()) {
         ++net_.counters_.malformedFrames;
         ++net_.counters_.garbagePeersDisconnected;
@@ -521,6 +547,7 @@ class Network::Impl::Link : public std::enable_shared_from_this<Link> {
   std::size_t inCapacity_ = 0;
   std::size_t readRoom_ = kFirstReadRoom;
   std::size_t inPos_ = 0, inEnd_ = 0;
+  std::size_t skip_ = 0;  // bytes of an oversized frame still to be skipped
   // Frames waiting to be written: bytes, then (when set) a tuple's data,
   // which is the end of the frame those bytes begin.
   struct Chunk {
@@ -709,6 +736,7 @@ void Network::Impl::onFrame(const std::shared_ptr<Link>& link, std::string_view 
     auto& message = inbox_.emplace_back();
     if (!wire::decodeRouted(frame, config_.maxDataBytes, message, decodeError_)) {
       inbox_.pop_back();
+      if (answerOversize(link, frame)) return;
       return onMalformed(link, decodeError_);
     }
     if (!link->established_) {
@@ -757,6 +785,20 @@ void Network::Impl::onFrame(const std::shared_ptr<Link>& link, std::string_view 
   } else if (auto* taken = std::get_if<wire::IdTaken>(&message)) {
     if (taken->id == self_ && taken->incarnation == incarnation_) collision(0);
   }
+}
+
+bool Network::Impl::answerOversize(const std::shared_ptr<Link>& link, std::string_view head) {
+  auto oversize = wire::decodeOversize(head, config_.maxDataBytes);
+  if (!oversize || !link->established_) return false;
+  auto answer = wire::answerOversize(*oversize, self_, config_.maxDataBytes);
+  if (answer.envelope.destination == self_) {
+    inbox_.push_back(std::move(answer));  // a TupleWithheld in place of the owner's update
+  } else if (routes_.count(answer.envelope.destination)) {
+    forward(answer.envelope.destination, wire::encodeFrame(answer));
+  } else {
+    heldAnswers_.emplace_back(std::move(answer), SteadyClock::now());
+  }
+  return true;
 }
 
 void Network::Impl::onHello(const std::shared_ptr<Link>& link, const wire::Hello& hello) {
@@ -917,6 +959,17 @@ void Network::Impl::forwardFrame(std::string_view frame, const wire::Envelope& e
 // Frames held for an unknown source: process those whose source is now
 // routable, drop those older than kHoldFor (counted as unroutable).
 void Network::Impl::retryHeld() {
+  for (auto n = heldAnswers_.size(); n > 0; --n) {
+    auto [answer, arrived] = std::move(heldAnswers_.front());
+    heldAnswers_.pop_front();
+    if (routes_.count(answer.envelope.destination)) {
+      forward(answer.envelope.destination, wire::encodeFrame(answer));
+    } else if (SteadyClock::now() - arrived > kHoldFor) {
+      ++counters_.unroutable;
+    } else {
+      heldAnswers_.emplace_back(std::move(answer), arrived);
+    }
+  }
   if (held_.empty()) return;
   const auto now = SteadyClock::now();
   std::deque<Held> keep;
@@ -1225,7 +1278,11 @@ void Network::Impl::pingLoop() {
       // Ping tells the peer we live, its Pong tells us. A link busy in
       // one direction costs one Ping a period, an idle one a single
       // exchange (whichever end asks first), not one from each end.
-      if (!link->established_ || now - link->lastHeard_ < config_.pingPeriod) continue;
+      // So does one that receives a big frame and sends nothing: the peer
+      // sending it hears nothing else, and its own Ping waits behind the frame.
+      const bool quiet = now - link->lastHeard_ >= config_.pingPeriod ||
+                         (link->midFrame() && now - link->lastSent_ >= config_.pingPeriod);
+      if (!link->established_ || !quiet) continue;
       std::string out;
       wire::encode(
           wire::LinkMessage{wire::Ping{static_cast<std::uint64_t>(now.time_since_epoch().count())}},

@@ -4,6 +4,7 @@
 #include <bit>
 #include <cstring>
 
+#include "peis/error.h"
 #include "peis/key.h"
 
 namespace peis::wire {
@@ -204,7 +205,7 @@ Timestamp fromMicros(std::int64_t v) { return Timestamp(std::chrono::microsecond
 // The tuple's fields, for the growing Writer and the in-place RawWriter.
 // Every field up to the data length (the data bytes come last).
 template <typename W>
-void writeTupleHead(W& w, const Tuple& t) {
+void writeTupleHead(W& w, const Tuple& t, std::uint32_t dataBytes) {
   w.i32(t.owner);
   w.i32(t.creator);
   w.str16(t.key);
@@ -214,12 +215,12 @@ void writeTupleHead(W& w, const Tuple& t) {
   w.i64(micros(t.ts_user));
   w.i64(micros(t.ts_expire));
   w.u64(t.seqno);
-  w.u32(static_cast<std::uint32_t>(t.data.size()));
+  w.u32(dataBytes);
 }
 
 template <typename W>
 void writeTuple(W& w, const Tuple& t) {
-  writeTupleHead(w, t);
+  writeTupleHead(w, t, static_cast<std::uint32_t>(t.data.size()));
   w.raw(t.data);
 }
 
@@ -228,7 +229,8 @@ void checkKey(Reader& r, const std::string& key, const char* what) {
   if (auto problem = keyProblem(key)) r.fail(std::string("bad ") + what + ": " + *problem);
 }
 
-void readTupleInto(Reader& r, std::size_t maxDataBytes, Tuple& t) {
+// Every field of a tuple up to its data; returns the data length.
+std::uint32_t readTupleHead(Reader& r, Tuple& t) {
   t.owner = r.id("tuple owner");
   t.creator = r.id("tuple creator");
   r.bytesInto(t.key, r.u16("tuple key"), "tuple key");
@@ -246,7 +248,11 @@ void readTupleInto(Reader& r, std::size_t maxDataBytes, Tuple& t) {
   t.ts_user = fromMicros(r.i64("ts_user"));
   t.ts_expire = fromMicros(r.i64("ts_expire"));
   t.seqno = r.u64("seqno");
-  const auto size = r.u32("data length");
+  return r.u32("data length");
+}
+
+void readTupleInto(Reader& r, std::size_t maxDataBytes, Tuple& t) {
+  const auto size = readTupleHead(r, t);
   if (r.ok() && size > maxDataBytes) {
     r.fail("data of " + std::to_string(size) + " bytes exceeds the limit of " +
            std::to_string(maxDataBytes));
@@ -329,6 +335,7 @@ MessageType typeOf(const RoutedBody& body) {
     MessageType operator()(const TupleDeleted&) { return MessageType::TupleDeleted; }
     MessageType operator()(const Write&) { return MessageType::Write; }
     MessageType operator()(const WriteResult&) { return MessageType::WriteResult; }
+    MessageType operator()(const TupleWithheld&) { return MessageType::TupleWithheld; }
   } visitor;
   return std::visit(visitor, body);
 }
@@ -343,6 +350,7 @@ struct BodyEncoder {
     w.str16(m.keyPattern);
     w.u32(m.knownCount);
     w.u64(m.knownSeqnoSum);
+    w.u32(m.maxDataBytes);
   }
   void operator()(const Unsubscribe& m) { w.u64(m.subscription); }
   void operator()(const TupleUpdate& m) {
@@ -361,6 +369,7 @@ struct BodyEncoder {
     w.u8(m.ifSeqno ? 1 : 0);
     w.u64(m.ifSeqno.value_or(0));
     w.i64(m.ttlMicros);
+    w.u32(m.waitMs);
     writeTuple(w, m.tuple);
   }
   void operator()(const WriteResult& m) {
@@ -368,6 +377,12 @@ struct BodyEncoder {
     w.u8(m.status);
     w.u64(m.seqno);
     w.str16(m.message);
+  }
+  void operator()(const TupleWithheld& m) {
+    w.u64(m.ownerIncarnation);
+    w.i32(m.limitedBy);
+    w.u32(m.limit);
+    writeTupleHead(w, m.tuple, m.dataBytes);
   }
 };
 
@@ -437,6 +452,7 @@ RoutedBody decodeBody(MessageType type, Reader& r, std::size_t maxDataBytes) {
       m.keyPattern = r.str16("key pattern");
       m.knownCount = r.u32("known count");
       m.knownSeqnoSum = r.u64("known seqno sum");
+      m.maxDataBytes = r.u32("max data");
       if (r.ok()) {
         if (auto problem = keyPatternProblem(m.keyPattern)) r.fail("bad key pattern: " + *problem);
       }
@@ -471,7 +487,16 @@ RoutedBody decodeBody(MessageType type, Reader& r, std::size_t maxDataBytes) {
       if (hasIf == 1) m.ifSeqno = ifSeqno;
       m.ttlMicros = r.i64("ttl");
       if (r.ok() && m.ttlMicros < 0) r.fail("negative ttl");
+      m.waitMs = r.u32("wait");
       m.tuple = readTuple(r, maxDataBytes);
+      return m;
+    }
+    case MessageType::TupleWithheld: {
+      TupleWithheld m;
+      m.ownerIncarnation = r.u64("incarnation");
+      m.limitedBy = r.id("limited by");
+      m.limit = r.u32("limit");
+      m.dataBytes = readTupleHead(r, m.tuple);
       return m;
     }
     default: {
@@ -485,7 +510,7 @@ RoutedBody decodeBody(MessageType type, Reader& r, std::size_t maxDataBytes) {
   }
 }
 
-bool knownType(std::uint8_t type) { return (type >= 1 && type <= 5) || (type >= 16 && type <= 21); }
+bool knownType(std::uint8_t type) { return (type >= 1 && type <= 5) || (type >= 16 && type <= 22); }
 
 }  // namespace
 
@@ -519,7 +544,9 @@ void encodeTupleUpdate(const Envelope& envelope, std::uint64_t ownerIncarnation,
   w.i32(envelope.destination);
   w.u8(envelope.ttl);
   w.u64(ownerIncarnation);
-  if (data == TupleData::Omit) return writeTupleHead(w, tuple);
+  if (data == TupleData::Omit) {
+    return writeTupleHead(w, tuple, static_cast<std::uint32_t>(tuple.data.size()));
+  }
   writeTuple(w, tuple);
 }
 
@@ -600,6 +627,57 @@ DecodeResult decode(std::string_view frame, std::size_t maxDataBytes) {
   r.end();
   if (!r.ok()) return {std::nullopt, r.error()};
   return {std::move(message), {}};
+}
+
+}  // namespace peis::wire
+
+namespace peis::wire {
+
+std::optional<Oversize> decodeOversize(std::string_view head, std::size_t maxDataBytes) {
+  if (head.empty()) return std::nullopt;
+  Oversize o;
+  o.type = static_cast<MessageType>(head[0]);
+  if (o.type != MessageType::TupleUpdate && o.type != MessageType::Write) return std::nullopt;
+  Reader r(head.substr(1));
+  o.envelope.source = r.id("source");
+  o.envelope.destination = r.id("destination");
+  o.envelope.ttl = r.u8("ttl");
+  if (o.type == MessageType::Write) {
+    o.request = r.u64("request");
+    const auto op = r.u8("op");
+    const auto hasIf = r.u8("if-seqno flag");
+    r.u64("if-seqno");
+    const auto ttl = r.i64("ttl");
+    r.u32("wait");
+    if (r.ok() && (op > 2 || hasIf > 1 || ttl < 0)) return std::nullopt;
+  } else {
+    o.ownerIncarnation = r.u64("incarnation");
+  }
+  o.dataBytes = readTupleHead(r, o.tuple);
+  if (!r.ok() || o.dataBytes <= maxDataBytes) return std::nullopt;
+  return o;
+}
+
+RoutedMessage answerOversize(const Oversize& o, PeisId self, std::size_t maxDataBytes) {
+  const auto limit = static_cast<std::uint32_t>(std::min<std::size_t>(maxDataBytes, kMaxDataBytes));
+  const bool forMe = o.envelope.destination == self;
+  if (o.type == MessageType::Write) {
+    WriteResult result;
+    result.request = o.request;
+    result.status = static_cast<std::uint8_t>(static_cast<int>(ErrorCode::TooLarge) + 1);
+    result.message = "data is " + std::to_string(o.dataBytes) + " bytes; " +
+                     (forMe ? std::string("this PEIS")
+                            : "PEIS " + std::to_string(self) + " on the route to PEIS " +
+                                  std::to_string(o.envelope.destination)) +
+                     " accepts at most " + std::to_string(limit) + " (see --peis-max-data)";
+    return RoutedMessage{Envelope{self, o.envelope.source, kDefaultTtl}, std::move(result)};
+  }
+  TupleWithheld withheld{o.ownerIncarnation, self, limit, o.dataBytes, o.tuple};
+  // For this PEIS the notice stands in for the owner's update; on the way, it
+  // goes on from here.
+  const Envelope envelope = forMe ? Envelope{o.envelope.source, self, kDefaultTtl}
+                                  : Envelope{self, o.envelope.destination, kDefaultTtl};
+  return RoutedMessage{envelope, std::move(withheld)};
 }
 
 }  // namespace peis::wire

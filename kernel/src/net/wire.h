@@ -68,6 +68,8 @@ struct Subscribe {
   // sends everything again (anti-entropy for values lost in transit).
   std::uint32_t knownCount = 0;
   std::uint64_t knownSeqnoSum = 0;
+  // The subscriber's data limit: a value over it is sent as TupleWithheld.
+  std::uint32_t maxDataBytes = kNoDataLimit;
   bool operator==(const Subscribe&) const = default;
 };
 struct Unsubscribe {
@@ -93,6 +95,10 @@ struct Write {
   std::optional<std::uint64_t> ifSeqno;
   std::int64_t ttlMicros = 0;
   Tuple tuple;  // owner, key, data, mimetype, encoding, ts_user, ts_expire
+  // How long the writer waits for the result (0: unknown). An owner that
+  // holds the write (a write gate) answers before then. (On the wire it
+  // comes before the tuple.)
+  std::uint32_t waitMs = 0;
   bool operator==(const Write&) const = default;
 };
 struct WriteResult {
@@ -103,9 +109,21 @@ struct WriteResult {
   bool operator==(const WriteResult&) const = default;
 };
 
+// In place of a TupleUpdate whose value is over a PEIS's data limit: the
+// tuple without its data. Sent by the owner to a subscriber whose limit it
+// knows, or by the PEIS on the way whose limit the value is over.
+struct TupleWithheld {
+  std::uint64_t ownerIncarnation = 0;
+  PeisId limitedBy = 0;     // the PEIS whose limit the value is over
+  std::uint32_t limit = 0;  // that PEIS's --peis-max-data
+  std::uint32_t dataBytes = 0;
+  Tuple tuple;  // every field but the data (empty)
+  bool operator==(const TupleWithheld&) const = default;
+};
+
 using LinkMessage = std::variant<Hello, Ping, Pong, Routes, IdTaken>;
-using RoutedBody =
-    std::variant<Subscribe, Unsubscribe, TupleUpdate, TupleDeleted, Write, WriteResult>;
+using RoutedBody = std::variant<Subscribe, Unsubscribe, TupleUpdate, TupleDeleted, Write,
+                                WriteResult, TupleWithheld>;
 struct RoutedMessage {
   Envelope envelope;
   RoutedBody body;
@@ -147,5 +165,25 @@ bool isRoutedFrame(std::string_view frame);
 
 // Reads the u32 length prefix at the start of `bytes` (needs 4 bytes).
 std::uint32_t frameLength(std::string_view bytes);
+
+// A routed frame whose tuple data is over this PEIS's limit: what its first
+// bytes say, enough to answer it (docs/protocol.md §2.1).
+struct Oversize {
+  Envelope envelope;
+  MessageType type = MessageType::TupleUpdate;  // or Write
+  std::uint64_t request = 0;                    // of a Write
+  std::uint64_t ownerIncarnation = 0;           // of a TupleUpdate
+  std::uint32_t dataBytes = 0;
+  Tuple tuple;  // every field before the data; the data is empty
+};
+// Decodes the first min(frame length, kOversizeHeadBytes) bytes of a frame
+// (after the length field). nullopt unless they begin a well-formed
+// TupleUpdate or Write whose data is over `maxDataBytes` (anything else is
+// malformed).
+std::optional<Oversize> decodeOversize(std::string_view head, std::size_t maxDataBytes);
+// The answer of PEIS `self` (limit `maxDataBytes`) to an oversized frame, for
+// itself or another PEIS: to a Write, a TooLarge WriteResult for the writer;
+// to a TupleUpdate, a TupleWithheld for its destination.
+RoutedMessage answerOversize(const Oversize& oversize, PeisId self, std::size_t maxDataBytes);
 
 }  // namespace peis::wire

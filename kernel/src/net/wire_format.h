@@ -1,4 +1,4 @@
-// The PEIS wire protocol, version 1: every frame's byte layout. This header
+// The PEIS wire protocol, version 2: every frame's byte layout. This header
 // is the code-side statement of docs/protocol.md (which is normative); the
 // encoder and decoder in wire.cpp follow it field by field.
 //
@@ -22,30 +22,50 @@
 //
 // Routed messages start with an envelope: i32 source | i32 destination | u8 ttl
 //   Subscribe    u64 subscription | u32 lease ms | u8 has owner | i32 owner |
-//                str16 key pattern | u32 known count | u64 known seqno sum
+//                str16 key pattern | u32 known count | u64 known seqno sum |
+//                u32 max data (the subscriber's data limit)
 //   Unsubscribe  u64 subscription
 //   TupleUpdate  u64 owner incarnation | tuple
 //   TupleDeleted u64 owner incarnation | i32 owner | str16 key | u64 seqno
 //   Write        u64 request | u8 op (0 set, 1 append, 2 erase) |
-//                u8 has if-seqno | u64 if-seqno | i64 ttl us | tuple
+//                u8 has if-seqno | u64 if-seqno | i64 ttl us |
+//                u32 wait ms (how long the writer waits for the result) | tuple
 //   WriteResult  u64 request | u8 status (0 ok, else ErrorCode + 1) |
 //                u64 seqno | str16 message
+//   TupleWithheld u64 owner incarnation | i32 limited by | u32 limit |
+//                tuple head (a value over the data limit of PEIS `limited by`)
 //
 // tuple = i32 owner | i32 creator | str16 key | str8 mimetype | u8 encoding |
 //         i64 ts_write | i64 ts_user | i64 ts_expire (microseconds since the
 //         Unix epoch, 0 = unset) | u64 seqno | bytes32 data
+// tuple head = the same without the data bytes (u32 data length still there)
+//
+// A routed frame whose data is over the receiver's limit (a TupleUpdate or a
+// Write) is not dropped: the receiver reads its first kOversizeHeadBytes,
+// skips the rest and answers it (docs/protocol.md §2.1).
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 
+#include "peis/types.h"
+
 namespace peis::wire {
 
 inline constexpr std::uint32_t kMagic = 0x50454953;  // "PEIS"
-inline constexpr std::uint16_t kVersion = 1;
+inline constexpr std::uint16_t kVersion = 2;
 inline constexpr std::size_t kFrameHeaderBytes = 4;
 // Largest frame: the largest data any PEIS accepts plus room for the fields.
 inline constexpr std::size_t kMaxFrameOverhead = 64 * 1024;
+// The longest frame any PEIS may send (the hard data limit plus the fields);
+// a longer length is a framing error.
+inline constexpr std::size_t kLargestFrameBytes = kMaxDataBytes + kMaxFrameOverhead;
+// Bytes of a tuple head at most, with a valid key (256) and mimetype (255):
+// owner, creator, str16 key, str8 mimetype, encoding, 3 times, seqno, length.
+inline constexpr std::size_t kMaxTupleHeadBytes = 4 + 4 + (2 + 256) + (1 + 255) + 1 + 3 * 8 + 8 + 4;
+// The first bytes of an oversized frame that say all but its data: type,
+// envelope (9), the Write fields (30; a TupleUpdate's are fewer), tuple head.
+inline constexpr std::size_t kOversizeHeadBytes = 1 + 9 + 30 + kMaxTupleHeadBytes;
 inline constexpr std::uint8_t kDefaultTtl = 32;
 // Tuple data from this size on is sent from the stored tuple (gathered
 // write), not copied into an encoded frame.
@@ -63,9 +83,13 @@ enum class MessageType : std::uint8_t {
   TupleDeleted = 19,
   Write = 20,
   WriteResult = 21,
+  TupleWithheld = 22,
 };
 
 inline constexpr bool isRouted(MessageType type) { return static_cast<std::uint8_t>(type) >= 16; }
+
+// Subscribe's max data when the subscriber announces no limit.
+inline constexpr std::uint32_t kNoDataLimit = 0xffffffff;
 
 // Capability flags in Hello.
 inline constexpr std::uint32_t kCapabilityCoalescing = 1u << 0;
