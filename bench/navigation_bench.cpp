@@ -28,7 +28,8 @@ double percentile(std::vector<double> v, double p) {
 }
 
 OccupancyGrid homeMap() {
-  const auto world = peis::sim::loadWorldFile(std::string(PEIS_SOURCE_DIR) + "/components/sim/homes/peis-home.yaml");
+  const auto world = peis::sim::loadWorldFile(std::string(PEIS_SOURCE_DIR) +
+                                              "/components/sim/homes/peis-home.yaml");
   const auto grid = peis::sim::OccupancyGrid::fromWorld(world);
   return parsePgmMap(grid.toPgm(), parseMapInfo(grid.info()));
 }
@@ -57,7 +58,9 @@ OccupancyGrid bigMap() {
 }
 
 void planningTable() {
-  std::printf("| map | cells | inflation (ms) | A* median (ms) | A* p95 (ms) | cells expanded (median) | plans |\n");
+  std::printf(
+      "| map | cells | inflation (ms) | A* median (ms) | A* p95 (ms) | cells expanded (median) | "
+      "plans |\n");
   std::printf("|---|---|---|---|---|---|---|\n");
   struct Case {
     const char* name;
@@ -73,7 +76,8 @@ void planningTable() {
     const double inflation = ms(Clock::now() - t0);
     std::mt19937 rng(11);
     const auto& info = c.grid.info();
-    std::uniform_real_distribution<double> ux(info.originX, info.originX + info.width * info.resolution),
+    std::uniform_real_distribution<double> ux(info.originX,
+                                              info.originX + info.width * info.resolution),
         uy(info.originY, info.originY + info.height * info.resolution);
     std::vector<double> times, expanded;
     int failures = 0;
@@ -89,8 +93,8 @@ void planningTable() {
       if (!path.found()) ++failures;
     }
     std::printf("| %s | %d | %.1f | %.2f | %.2f | %.0f | %d (%d without a path) |\n", c.name,
-                info.width * info.height, inflation, percentile(times, 0.5), percentile(times, 0.95),
-                percentile(expanded, 0.5), c.plans, failures);
+                info.width * info.height, inflation, percentile(times, 0.5),
+                percentile(times, 0.95), percentile(expanded, 0.5), c.plans, failures);
   }
 }
 
@@ -118,7 +122,8 @@ void accuracyTable() {
   const std::vector<std::pair<Pose2, Point2>> trips{
       {{3.5, 3.0, M_PI}, {6.6, 4.9}}, {{6.6, 4.9, 0}, {2.6, 1.55}}, {{2.6, 1.55, 0}, {6.0, 0.6}},
       {{6.0, 0.6, 0}, {1.2, 4.8}},    {{1.2, 4.8, 0}, {0.8, 2.8}},  {{0.8, 2.8, 0}, {6.6, 4.9}}};
-  std::printf("| localization | trips | final error median (cm) | p95 (cm) | max (cm) | mean time (s) |\n");
+  std::printf(
+      "| localization | trips | final error median (cm) | p95 (cm) | max (cm) | mean time (s) |\n");
   std::printf("|---|---|---|---|---|---|\n");
   // One trip per row entry: a fresh robot each time (short trips), or the six
   // trips one after another with the same robot and odometry (drift adds up).
@@ -154,7 +159,8 @@ void accuracyTable() {
             t += 0.05;
             // 10 Hz fixes, 100 ms old when they arrive.
             if (fixes && steps % 2 == 0)
-              navigator.onFix({robot.truth.x + fixNoise(noise), robot.truth.y + fixNoise(noise)}, t - 0.1);
+              navigator.onFix({robot.truth.x + fixNoise(noise), robot.truth.y + fixNoise(noise)},
+                              t - 0.1);
             take(navigator.onOdometry(robot.odometry, t));
           }
           errors.push_back(100 * distance(robot.truth.position(), goal));
@@ -166,16 +172,21 @@ void accuracyTable() {
       std::printf("| %s, %s | %zu | %.1f | %.1f | %.1f | %.1f |\n",
                   fixes ? "fixes (10 Hz, σ 2 cm, 100 ms late) + odometry" : "odometry only",
                   chained ? "six trips in a row (drift adds up)" : "one trip from a known start",
-                  errors.size(), percentile(errors, 0.5), percentile(errors, 0.95), percentile(errors, 1.0), mean);
+                  errors.size(), percentile(errors, 0.5), percentile(errors, 0.95),
+                  percentile(errors, 1.0), mean);
     }
 }
 
 }  // namespace
 
 int main() {
-  std::printf("#### Planning (A* on the inflated grid, robot radius 0.2 m; start and goal at least half the map apart)\n\n");
+  std::printf(
+      "#### Planning (A* on the inflated grid, robot radius 0.2 m; start and goal at least half "
+      "the map apart)\n\n");
   planningTable();
-  std::printf("\n#### Final position error at the goal (navigation core in closed loop with a simulated robot)\n\n");
+  std::printf(
+      "\n#### Final position error at the goal (navigation core in closed loop with a simulated "
+      "robot)\n\n");
   accuracyTable();
   return 0;
 }

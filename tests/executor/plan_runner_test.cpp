@@ -200,16 +200,19 @@ TEST_CASE("an undispatchable step and an empty plan", "[unit]") {
 
 TEST_CASE("plans, needs and static links as text", "[unit]") {
   const auto plan = parsePlan(
-      "GoTo(Pippi, bed) | position(pippi)@Pippi.mi-position ; Talk(Pippi, wakeup); GoTo(Pippi,sofa)");
+      "GoTo(Pippi, bed) | position(pippi)@Pippi.mi-position ; Talk(Pippi, wakeup); "
+      "GoTo(Pippi,sofa)");
   REQUIRE(plan.size() == 3);
   CHECK(plan[0] == PlanStep{"GoTo", {"Pippi", "bed"}, {kPos}});
   CHECK(plan[1].needs.empty());
   CHECK(formatPlan(plan) ==
-        "GoTo(Pippi, bed) | position(pippi)@Pippi.mi-position; Talk(Pippi, wakeup); GoTo(Pippi, sofa)");
+        "GoTo(Pippi, bed) | position(pippi)@Pippi.mi-position; Talk(Pippi, wakeup); GoTo(Pippi, "
+        "sofa)");
   CHECK(parsePlan(formatPlan(plan)) == plan);
   CHECK(parsePlan("  ").empty());
   CHECK_THROWS_WITH(parsePlan("GoTo(bed"), Catch::Contains("plan step 'GoTo(bed'"));
-  CHECK_THROWS_WITH(parsePlan("GoTo(bed) | position"), Catch::Contains("is not INFORMATION@PEIS.KEY"));
+  CHECK_THROWS_WITH(parsePlan("GoTo(bed) | position"),
+                    Catch::Contains("is not INFORMATION@PEIS.KEY"));
   const auto need = parseNeed(kPos);
   REQUIRE(need);
   CHECK(need->information == "position(pippi)");

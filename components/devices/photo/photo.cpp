@@ -3,10 +3,9 @@
 
 #include <algorithm>
 #include <cmath>
-#include <stdexcept>
-
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <stdexcept>
 
 namespace peis::devices {
 

@@ -7,9 +7,8 @@
 
 #include <array>
 #include <cstdint>
-#include <string>
-
 #include <opencv2/core.hpp>
+#include <string>
 
 namespace peis::devices {
 

@@ -6,9 +6,7 @@
 
 namespace peis::devices {
 
-PhraseTable::PhraseTable() {
-  phrases_["wakeup"] = "Good morning, Johanna. Time to wake up.";
-}
+PhraseTable::PhraseTable() { phrases_["wakeup"] = "Good morning, Johanna. Time to wake up."; }
 
 void PhraseTable::add(const std::string& rule) {
   const auto eq = rule.find('=');

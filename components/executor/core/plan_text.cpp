@@ -80,8 +80,9 @@ StaticLink parseStaticLink(std::string_view text) {
   StaticLink link;
   if (eq == std::string_view::npos || eq == 0 ||
       !splitOwnerKey(text.substr(eq + 1), link.producer, link.key))
-    throw std::invalid_argument("link '" + std::string(text) +
-                                "': expected INFORMATION=PEIS.KEY, e.g. position(pippi)=tracker.position.Pippi");
+    throw std::invalid_argument(
+        "link '" + std::string(text) +
+        "': expected INFORMATION=PEIS.KEY, e.g. position(pippi)=tracker.position.Pippi");
   link.information = trim(text.substr(0, eq));
   return link;
 }

@@ -1,10 +1,10 @@
 // Plans and static configuration links as text, for the executor's command
 // line and its `plan` tuple:
 //
-//   plan  = STEP ; STEP ; …          GoTo(Pippi, bed) | position(pippi)@Pippi.mi-position ; Talk(Pippi, wakeup)
-//   STEP  = ACTION [ | NEED | NEED … ]
-//   NEED  = INFORMATION@PEIS.KEY     (the goal syntax of the configurator)
-//   link  = INFORMATION=PEIS.KEY     position(pippi)=tracker.position.Pippi
+//   plan  = STEP ; STEP ; …          GoTo(Pippi, bed) | position(pippi)@Pippi.mi-position ;
+//   Talk(Pippi, wakeup) STEP  = ACTION [ | NEED | NEED … ] NEED  = INFORMATION@PEIS.KEY     (the
+//   goal syntax of the configurator) link  = INFORMATION=PEIS.KEY
+//   position(pippi)=tracker.position.Pippi
 #pragma once
 
 #include <optional>
