@@ -29,15 +29,16 @@
 #include <thread>
 #include <vector>
 
+#include "bench_stats.h"
+#include "child_process.h"
+
 namespace {
 
 using namespace std::chrono_literals;
-using Clock = std::chrono::steady_clock;
-
-std::int64_t nowMicros() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(Clock::now().time_since_epoch())
-      .count();
-}
+using peis::bench::Clock;
+using peis::bench::nowMicros;
+using peis::bench::Percentiles;
+using peis::bench::percentiles;
 
 std::string sizeName(std::size_t bytes) {
   return bytes >= 1024 ? std::to_string(bytes / 1024) + " KiB" : std::to_string(bytes) + " B";
@@ -49,63 +50,7 @@ std::map<std::string, std::string> parseFlags(int argc, char** argv) {
   return flags;
 }
 
-// A child process running this program in another role, stdout on a pipe.
-// posix_spawn (a vfork: no copy of the parent's page tables) of
-// /proc/self/exe; the pipes are close-on-exec, so a child inherits only its
-// own stdout, not the pipes of the children started before it. The child
-// arranges to die with the parent itself (main, --role).
-class Child {
- public:
-  explicit Child(std::vector<std::string> args) {
-    int fds[2];
-    if (pipe2(fds, O_CLOEXEC) != 0) throw std::runtime_error("pipe failed");
-    std::vector<char*> argv;
-    static std::string self = "/proc/self/exe";
-    argv.push_back(self.data());
-    for (auto& a : args) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_adddup2(&actions, fds[1], 1);  // dup2 clears close-on-exec
-    const int error = posix_spawn(&pid_, "/proc/self/exe", &actions, nullptr, argv.data(), environ);
-    posix_spawn_file_actions_destroy(&actions);
-    close(fds[1]);
-    if (error != 0) {
-      close(fds[0]);
-      pid_ = -1;
-      throw std::runtime_error("posix_spawn failed");
-    }
-    out_ = fdopen(fds[0], "r");
-  }
-  Child(const Child&) = delete;
-  ~Child() {
-    if (pid_ > 0) {
-      kill(pid_, SIGKILL);
-      waitpid(pid_, nullptr, 0);
-    }
-    if (out_) fclose(out_);
-  }
-  // Reads one line of the child's stdout (blocking).
-  std::string line() {
-    char buffer[4096];
-    if (!fgets(buffer, sizeof buffer, out_)) return {};
-    std::string text(buffer);
-    if (!text.empty() && text.back() == '\n') text.pop_back();
-    return text;
-  }
-  pid_t pid() const { return pid_; }
-  void stop() {
-    if (pid_ > 0) {
-      kill(pid_, SIGTERM);
-      waitpid(pid_, nullptr, 0);
-      pid_ = -1;
-    }
-  }
-
- private:
-  pid_t pid_ = -1;
-  FILE* out_ = nullptr;
-};
+using peis::bench::Child;
 
 peis::Options hostOptions(const std::string& ecology, int id, bool discovery = false) {
   peis::Options options;
@@ -123,15 +68,6 @@ bool waitFor(const std::function<bool()>& condition, std::chrono::milliseconds d
     std::this_thread::sleep_for(200us);
   }
   return true;
-}
-
-struct Percentiles {
-  double p50, p90, p99;
-};
-Percentiles percentiles(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  auto at = [&](double p) { return v[static_cast<std::size_t>(p * (v.size() - 1))]; };
-  return {at(0.5), at(0.9), at(0.99)};
 }
 
 // ---- roles (child processes) ---------------------------------------------------
@@ -160,14 +96,14 @@ int roleTcpEcho() {
   const int client = accept(server, nullptr, nullptr);
   int one = 1;
   setsockopt(client, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-  std::vector<char> buffer(1 << 20);
+  // The length and the payload go back in one write, as they came.
+  std::vector<char> buffer((1 << 20) + 4);
   while (true) {
     std::uint32_t size;
-    if (!readFully(client, reinterpret_cast<char*>(&size), 4)) break;
-    if (!readFully(client, buffer.data(), size)) break;
-    if (write(client, &size, 4) != 4 ||
-        write(client, buffer.data(), size) != static_cast<ssize_t>(size))
-      break;
+    if (!readFully(client, buffer.data(), 4)) break;
+    std::memcpy(&size, buffer.data(), 4);
+    if (size > (1u << 20) || !readFully(client, buffer.data() + 4, size)) break;
+    if (write(client, buffer.data(), size + 4) != static_cast<ssize_t>(size + 4)) break;
   }
   return 0;
 }
@@ -248,18 +184,19 @@ Percentiles tcpRoundTrip(std::size_t bytes, int count) {
   connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address);
   int one = 1;
   setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-  std::string payload(bytes, 'x');
-  std::vector<char> back(bytes);
-  std::vector<double> micros;
+  // One write per message (length and payload together) and 50 warm-up
+  // rounds, as the PEIS round trip has: the strongest plain-TCP baseline.
+  std::vector<char> message(bytes + 4, 'x');
   const auto size = static_cast<std::uint32_t>(bytes);
-  for (int i = 0; i < count; ++i) {
+  std::memcpy(message.data(), &size, 4);
+  std::vector<char> back(bytes + 4);
+  std::vector<double> micros;
+  for (int i = 0; i < count + 50; ++i) {
     const auto start = Clock::now();
-    if (write(fd, &size, 4) != 4) break;
-    if (write(fd, payload.data(), bytes) != static_cast<ssize_t>(bytes)) break;
-    std::uint32_t got;
-    readFully(fd, reinterpret_cast<char*>(&got), 4);
-    readFully(fd, back.data(), got);
-    micros.push_back(std::chrono::duration<double, std::micro>(Clock::now() - start).count());
+    if (write(fd, message.data(), message.size()) != static_cast<ssize_t>(message.size())) break;
+    if (!readFully(fd, back.data(), back.size())) break;
+    if (i >= 50)
+      micros.push_back(std::chrono::duration<double, std::micro>(Clock::now() - start).count());
   }
   close(fd);
   return percentiles(micros);
@@ -545,15 +482,50 @@ int runAll(const std::string& what, const std::string& sizes) {
   return 0;
 }
 
+// One measurement as one line of numbers, for the side-by-side comparison
+// (bench/run_peer_comparison.sh), which interleaves the systems and takes
+// medians over repetitions:
+//   tcp-rtt SIZE, peis-rtt SIZE   -> p50 p90 p99 (us)
+//   peis-stream SIZE              -> delivered/s delivered written coalesced
+//   scale N                       -> seconds-to-all idle-cpu-% rss pss private (KiB)
+int runOnce(const std::string& kind, const std::string& argument) {
+  const std::string ecology = "bench-" + std::to_string(getpid());
+  const auto value = std::stoul(argument);
+  if (kind == "tcp-rtt" || kind == "peis-rtt") {
+    const int count = value >= 65536 ? 500 : 2000;
+    const auto p = kind == "tcp-rtt" ? tcpRoundTrip(value, count)
+                                     : peisRoundTrip(value, count, ecology + "-rtt");
+    std::printf("%.2f %.2f %.2f\n", p.p50, p.p90, p.p99);
+    return p.p50 > 0 ? 0 : 1;
+  }
+  if (kind == "peis-stream") {
+    const auto r = streamTo(value, 1, ecology + "-tp", 2s);
+    std::printf(
+        "%.0f %llu %llu %llu\n", r.updatesPerSecond, static_cast<unsigned long long>(r.delivered),
+        static_cast<unsigned long long>(r.written), static_cast<unsigned long long>(r.coalesced));
+    return r.updatesPerSecond > 0 ? 0 : 1;
+  }
+  if (kind == "scale") {
+    const auto r = scale(static_cast<int>(value), ecology + "-scale");
+    std::printf("%.3f %.4f %.0f %.0f %.0f\n", r.secondsToAll, r.idleCpuPercent, r.rssKib, r.pssKib,
+                r.privateKib);
+    return r.secondsToAll > 0 ? 0 : 1;
+  }
+  std::fprintf(stderr, "peis-bench-net once: unknown measurement '%s'\n", kind.c_str());
+  return 2;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   if (argc > 1 && (std::strcmp(argv[1], "--help") == 0 || std::strcmp(argv[1], "-h") == 0)) {
     std::printf(
         "Usage: peis-bench-net [all|rtt|throughput|join|scale] [SIZES]\n"
+        "       peis-bench-net once tcp-rtt|peis-rtt|peis-stream SIZE | once scale N\n"
         "SIZES (e.g. 16,1024) limits the one-writer throughput runs to those sizes,\n"
         "and for scale (e.g. 200) the numbers of processes.\n"
-        "Measures the ecology over loopback beside raw TCP; prints Markdown tables.\n");
+        "Measures the ecology over loopback beside raw TCP; prints Markdown tables.\n"
+        "`once` prints one measurement as a line of numbers (see run_peer_comparison.sh).\n");
     return 0;
   }
   if (argc > 2 && std::strcmp(argv[1], "--role") == 0) {
@@ -568,5 +540,6 @@ int main(int argc, char** argv) {
     if (role == "node") return roleNode(flags);
     return 2;
   }
+  if (argc == 4 && std::strcmp(argv[1], "once") == 0) return runOnce(argv[2], argv[3]);
   return runAll(argc > 1 ? argv[1] : "all", argc > 2 ? argv[2] : "");
 }

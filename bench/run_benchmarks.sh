@@ -33,13 +33,6 @@ out=$(mktemp)
   "$build/bench/peis-bench-net" scale
 } >"$out"
 cat "$out"
-# Splice the results between the markers (awk: no Python needed).
 doc=docs/performance.md
-grep -q '<!-- RESULTS:BEGIN -->' "$doc" && grep -q '<!-- RESULTS:END -->' "$doc" ||
-  { echo "docs/performance.md lacks the RESULTS markers" >&2; exit 1; }
-awk -v results="$out" '
-  /<!-- RESULTS:BEGIN -->/ { print; while ((getline line < results) > 0) print line; skip = 1; next }
-  /<!-- RESULTS:END -->/ { skip = 0 }
-  !skip { print }
-' "$doc" >"$doc.new" && mv "$doc.new" "$doc"
+bench/splice_results.sh RESULTS "$out" "$doc"
 echo "updated $doc"

@@ -41,12 +41,6 @@ out=$(mktemp)
 } >"$out"
 cat "$out"
 doc=docs/performance.md
-grep -q '<!-- TINY-RESULTS:BEGIN -->' "$doc" && grep -q '<!-- TINY-RESULTS:END -->' "$doc" ||
-  { echo "docs/performance.md lacks the TINY-RESULTS markers" >&2; exit 1; }
-awk -v results="$out" '
-  /<!-- TINY-RESULTS:BEGIN -->/ { print; while ((getline line < results) > 0) print line; skip = 1; next }
-  /<!-- TINY-RESULTS:END -->/ { skip = 0 }
-  !skip { print }
-' "$doc" >"$doc.new" && mv "$doc.new" "$doc"
+bench/splice_results.sh TINY-RESULTS "$out" "$doc"
 rm -f "$out"
 echo "updated $doc (tinybridge)"

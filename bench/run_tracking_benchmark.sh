@@ -13,12 +13,6 @@ out=$(mktemp)
 } >"$out"
 cat "$out"
 doc=docs/performance.md
-grep -q '<!-- TRACKING-RESULTS:BEGIN -->' "$doc" && grep -q '<!-- TRACKING-RESULTS:END -->' "$doc" ||
-  { echo "docs/performance.md lacks the TRACKING-RESULTS markers" >&2; exit 1; }
-awk -v results="$out" '
-  /<!-- TRACKING-RESULTS:BEGIN -->/ { print; while ((getline line < results) > 0) print line; skip = 1; next }
-  /<!-- TRACKING-RESULTS:END -->/ { skip = 0 }
-  !skip { print }
-' "$doc" >"$doc.new" && mv "$doc.new" "$doc"
+bench/splice_results.sh TRACKING-RESULTS "$out" "$doc"
 rm -f "$out"
 echo "updated $doc"

@@ -32,7 +32,8 @@ using namespace peis;
 double percentile(std::vector<double> values, double p) {
   if (values.empty()) return NAN;
   std::sort(values.begin(), values.end());
-  const std::size_t at = std::min(values.size() - 1, static_cast<std::size_t>(p * (values.size() - 1) + 0.5));
+  const std::size_t at =
+      std::min(values.size() - 1, static_cast<std::size_t>(p * (values.size() - 1) + 0.5));
   return values[at];
 }
 
@@ -93,7 +94,8 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  const std::string homePath = std::string(PEIS_SOURCE_DIR) + "/components/sim/homes/peis-home.yaml";
+  const std::string homePath =
+      std::string(PEIS_SOURCE_DIR) + "/components/sim/homes/peis-home.yaml";
   const sim::World world = sim::loadWorldFile(homePath);
   const sim::LightModel light(world);
   const auto targets = tracking::loadTargets(homePath);
@@ -159,11 +161,14 @@ int main(int argc, char** argv) {
       }
     }
   }
-  std::printf("Accuracy: %d random scenes of the PEIS-Home, all four robots placed at random free\n"
-              "poses in the living room each time (seed %u), cameras living-1 and living-2 (640x480,\n"
-              "fx 380, noise sigma 2). Error = horizontal distance to the true position.\n\n",
-              poses, seed);
-  std::printf("| fix | found / hats in view | median (cm) | p95 (cm) | max (cm) |\n|---|---|---|---|---|\n");
+  std::printf(
+      "Accuracy: %d random scenes of the PEIS-Home, all four robots placed at random free\n"
+      "poses in the living room each time (seed %u), cameras living-1 and living-2 (640x480,\n"
+      "fx 380, noise sigma 2). Error = horizontal distance to the true position.\n\n",
+      poses, seed);
+  std::printf(
+      "| fix | found / hats in view | median (cm) | p95 (cm) | max (cm) "
+      "|\n|---|---|---|---|---|\n");
   two.row("two cameras (triangulation)");
   one.row("one camera (living-1, hat plane)");
 
@@ -175,7 +180,8 @@ int main(int argc, char** argv) {
   }
   std::size_t k = 0;
   const int rounds = 400;
-  const PerCall detectMs = timePerCall(rounds, [&] { detector.detect(frames[k++ % frames.size()]); });
+  const PerCall detectMs =
+      timePerCall(rounds, [&] { detector.detect(frames[k++ % frames.size()]); });
   std::string why;
   const PerCall rawMs = timePerCall(rounds, [&] {
     const auto& e = raws[k++ % raws.size()];
@@ -191,13 +197,17 @@ int main(int argc, char** argv) {
     const auto a = c1.calibration.project(hat), b = c2.calibration.project(hat);
     pair = {{&c1.calibration, a->x(), a->y()}, {&c2.calibration, b->x(), b->y()}};
   }
-  const PerCall triangulateMs = timePerCall(2000, [&] { tracking::triangulate(pair, 0.52, noise); });
+  const PerCall triangulateMs =
+      timePerCall(2000, [&] { tracking::triangulate(pair, 0.52, noise); });
   sim::Scene scene = sim::sceneOf(simulation);
-  const PerCall renderMs = timePerCall(50, [&] { camera::renderView(world, light, scene, c1, k++); });
+  const PerCall renderMs =
+      timePerCall(50, [&] { camera::renderView(world, light, scene, c1, k++); });
   std::size_t pngBytes = 0;
   for (const auto& p : pngs) pngBytes += p.data.size();
-  std::printf("\nTime per 640x480 frame, median of %d (CPU: this thread's CPU time; wall: elapsed):\n\n"
-              "| step | CPU ms | wall ms |\n|---|---|---|\n", rounds);
+  std::printf(
+      "\nTime per 640x480 frame, median of %d (CPU: this thread's CPU time; wall: elapsed):\n\n"
+      "| step | CPU ms | wall ms |\n|---|---|---|\n",
+      rounds);
   std::printf("| hat detection (HSV, one labelling pass, blobs of %zu targets) | %.2f | %.2f |\n",
               targets.size(), detectMs.cpu, detectMs.wall);
   std::printf("| decode raw bgr8 (%zu bytes) + detection | %.2f | %.2f |\n", raws[0].data.size(),
@@ -206,7 +216,8 @@ int main(int argc, char** argv) {
               pngBytes / pngs.size(), pngMs.cpu, pngMs.wall);
   std::printf("| triangulation of one robot from two cameras | %.4f | %.4f |\n", triangulateMs.cpu,
               triangulateMs.wall);
-  std::printf("| rendering one camera image (the simulated camera, for reference) | %.2f | %.2f |\n",
-              renderMs.cpu, renderMs.wall);
+  std::printf(
+      "| rendering one camera image (the simulated camera, for reference) | %.2f | %.2f |\n",
+      renderMs.cpu, renderMs.wall);
   return 0;
 }

@@ -127,6 +127,7 @@ void Component::publishDescriptor(const Descriptor& descriptor) {
     kernel_.set(functionalityKey(f.name, "preconditions"), joined(f.preconditions));
     kernel_.set(functionalityKey(f.name, "cost"), std::to_string(f.cost));
     if (!f.description.empty()) kernel_.set(functionalityKey(f.name, "description"), f.description);
+    if (!f.activation.empty()) kernel_.set(functionalityKey(f.name, "activation"), f.activation);
     names += (names.empty() ? "" : " ") + f.name;
   }
   kernel_.set(conventions::kFunctionalities, names);

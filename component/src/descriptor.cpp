@@ -8,6 +8,7 @@
 #include <set>
 #include <sstream>
 
+#include "peis/descriptor_yaml.h"
 #include "peis/error.h"
 #include "peis/key.h"
 
@@ -49,33 +50,109 @@ std::string keyPart(std::string_view origin, const YAML::Node& node, const std::
   return value;
 }
 
+// The key with each `?var` replaced by a sample value, for checking it.
+std::string sampleKey(std::string key) {
+  for (std::size_t at = key.find('?'); at != std::string::npos; at = key.find('?', at)) {
+    auto end = at + 1;
+    while (end < key.size() && key[end] != '.') ++end;
+    key.replace(at, end - at, "x");
+  }
+  return key;
+}
+
+Port port(std::string_view origin, const YAML::Node& item, const std::string& what, bool input) {
+  onlyKeys(origin, item, {"name", "type", "key"}, "an entry of " + what);
+  Port port{keyPart(origin, item["name"], what + " name"),
+            scalar(origin, item["type"], what + " type"), ""};
+  std::string problem;
+  const auto type = Term::parse(port.type, &problem);
+  if (!type) {
+    fail(origin, item["type"], what + " type '" + port.type + "' is not a term: " + problem);
+  }
+  port.type = type->toString();
+  if (const auto key = item["key"]) {
+    port.key = scalar(origin, key, what + " key");
+    if (input && port.key.rfind("mi-", 0) != 0) {
+      fail(origin, key,
+           "the key of input '" + port.name + "' must start with 'mi-' (a meta input)");
+    }
+    if (auto bad = keyProblem(sampleKey(port.key))) {
+      fail(origin, key, what + " key '" + port.key + "' is not a valid key: " + *bad);
+    }
+  }
+  return port;
+}
+
 std::vector<Port> ports(std::string_view origin, const YAML::Node& node, const std::string& what) {
   std::vector<Port> result;
   if (!node) return result;
   if (!node.IsSequence()) fail(origin, node, what + " must be a list");
-  for (const auto& item : node) {
-    onlyKeys(origin, item, {"name", "type"}, "an entry of " + what);
-    Port port{keyPart(origin, item["name"], what + " name"),
-              scalar(origin, item["type"], what + " type")};
-    if (port.type.empty() || port.type.find(' ') != std::string::npos) {
-      fail(origin, item["type"], what + " type must be one word");
-    }
-    result.push_back(std::move(port));
-  }
+  for (const auto& item : node) result.push_back(port(origin, item, what, what == "inputs"));
   return result;
 }
 
+// Variables must be bound by a type or an atom; keys must be distinct.
+void checkVariables(std::string_view origin, const YAML::Node& node, const Functionality& f,
+                    const std::vector<Precondition>& preconditions) {
+  std::set<std::string> bound{std::string(kSelfVariable)};
+  for (const auto* list : {&f.inputs, &f.outputs}) {
+    for (const auto& p : *list) {
+      for (const auto& v : Term::parse(p.type)->variables()) bound.insert(v);
+    }
+  }
+  for (const auto& p : preconditions) {
+    if (!p.disequality) {
+      for (const auto& v : p.atom.variables()) bound.insert(v);
+    }
+  }
+  for (const auto& p : preconditions) {
+    for (const auto& side : {p.left, p.right}) {
+      if (p.disequality && isVariable(side) && !bound.count(side)) {
+        fail(origin, node,
+             "functionality '" + f.name + "': variable " + side + " in '" + p.toString() +
+                 "' appears in no type and no atom");
+      }
+    }
+    if (p.disequality && p.left == p.right) {
+      fail(origin, node,
+           "functionality '" + f.name + "': precondition '" + p.toString() + "' can never hold");
+    }
+  }
+  std::set<std::string> keys;
+  for (const auto& p : f.outputs) {
+    if (!keys.insert(p.outputKey()).second) {
+      fail(origin, node,
+           "functionality '" + f.name + "' writes two outputs to the key '" + p.outputKey() + "'");
+    }
+  }
+}
+
 Functionality functionality(std::string_view origin, const YAML::Node& node) {
-  onlyKeys(origin, node, {"name", "description", "inputs", "outputs", "preconditions", "cost"},
+  onlyKeys(origin, node,
+           {"name", "description", "inputs", "outputs", "preconditions", "activation", "cost"},
            "a functionality");
   Functionality f;
   f.name = keyPart(origin, node["name"], "functionality name");
   if (node["description"]) f.description = scalar(origin, node["description"], "description");
   f.inputs = ports(origin, node["inputs"], "inputs");
   f.outputs = ports(origin, node["outputs"], "outputs");
+  std::vector<Precondition> parsed;
   if (const auto pre = node["preconditions"]) {
     if (!pre.IsSequence()) fail(origin, pre, "preconditions must be a list");
-    for (const auto& item : pre) f.preconditions.push_back(scalar(origin, item, "a precondition"));
+    for (const auto& item : pre) {
+      const auto text = scalar(origin, item, "a precondition");
+      std::string problem;
+      auto p = Precondition::parse(text, &problem);
+      if (!p) fail(origin, item, "precondition '" + text + "' is not an atom: " + problem);
+      f.preconditions.push_back(p->toString());
+      parsed.push_back(std::move(*p));
+    }
+  }
+  if (const auto act = node["activation"]) {
+    f.activation = scalar(origin, act, "activation");
+    if (auto problem = keyProblem(f.activation + ".reqState")) {
+      fail(origin, act, "activation '" + f.activation + "' is not an actuator name: " + *problem);
+    }
   }
   if (const auto cost = node["cost"]) {
     try {
@@ -85,6 +162,7 @@ Functionality functionality(std::string_view origin, const YAML::Node& node) {
     }
     if (!std::isfinite(f.cost) || f.cost < 0) fail(origin, cost, "cost must be finite and >= 0");
   }
+  checkVariables(origin, node, f, parsed);
   return f;
 }
 
@@ -111,6 +189,11 @@ Descriptor parseDescriptor(std::string_view text, std::string_view origin) {
         ErrorCode::InvalidConfig,
         std::string(origin) + ":" + std::to_string(e.mark.line + 1) + ": not valid YAML: " + e.msg);
   }
+  return descriptorFromNode(root, origin);
+}
+}  // namespace
+
+Descriptor descriptorFromNode(const YAML::Node& root, std::string_view origin) {
   onlyKeys(origin, root, {"component", "functionalities"}, "the descriptor");
   Descriptor d;
   d.component = keyPart(origin, root["component"], "component");
@@ -128,7 +211,6 @@ Descriptor parseDescriptor(std::string_view text, std::string_view origin) {
   }
   return d;
 }
-}  // namespace
 
 Descriptor Descriptor::fromFile(const std::string& path) {
   std::ifstream in(path);
@@ -150,21 +232,18 @@ std::string Descriptor::toYaml() const {
           << YAML::BeginSeq;
       for (const auto& p : *list) {
         out << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << p.name
-            << YAML::Key << "type" << YAML::Value << p.type << YAML::EndMap;
+            << YAML::Key << "type" << YAML::Value << p.type;
+        if (!p.key.empty()) out << YAML::Key << "key" << YAML::Value << p.key;
+        out << YAML::EndMap;
       }
       out << YAML::EndSeq;
     }
     out << YAML::Key << "preconditions" << YAML::Value << YAML::Flow << f.preconditions;
+    if (!f.activation.empty()) out << YAML::Key << "activation" << YAML::Value << f.activation;
     out << YAML::Key << "cost" << YAML::Value << f.cost << YAML::EndMap;
   }
   out << YAML::EndSeq << YAML::EndMap;
   return out.c_str();
-}
-
-std::string formatPorts(const std::vector<Port>& ports) {
-  std::string text;
-  for (const auto& p : ports) text += (text.empty() ? "" : " ") + p.name + ":" + p.type;
-  return text;
 }
 
 }  // namespace peis

@@ -79,7 +79,8 @@ Eigen::Vector3d vector3(const components::YamlReader& reader, const YAML::Node& 
 Eigen::Matrix3d rotationOf(const components::YamlReader& reader, const YAML::Node& entry) {
   const YAML::Node rotation = entry["rotation"];
   const YAML::Node lookAt = entry["look_at"];
-  if (rotation && lookAt) reader.fail(rotation, "a camera has either rotation or look_at, not both");
+  if (rotation && lookAt)
+    reader.fail(rotation, "a camera has either rotation or look_at, not both");
   if (rotation) {
     const auto v = reader.numbers(rotation, 9, "camera rotation (row-major 3x3)");
     Eigen::Matrix3d r;
@@ -114,13 +115,14 @@ CameraSpec cameraFromYaml(const components::YamlReader& reader, const YAML::Node
   c.name = reader.name(reader.required(entry, "name", "a camera"), "camera name");
   c.width = static_cast<int>(reader.numberIn(entry, "width", 640, 16, 8192, "camera width"));
   c.height = static_cast<int>(reader.numberIn(entry, "height", 480, 16, 8192, "camera height"));
-  if (entry["fov_deg"] && entry["fx"]) reader.fail(entry["fov_deg"], "give fx or fov_deg, not both");
+  if (entry["fov_deg"] && entry["fx"])
+    reader.fail(entry["fov_deg"], "give fx or fov_deg, not both");
   if (entry["fov_deg"]) {
     const double fov = reader.numberIn(entry["fov_deg"], 1, 170, "camera fov_deg");
     c.fx = (c.width / 2.0) / std::tan(fov * M_PI / 360.0);
   } else {
-    c.fx = reader.numberIn(reader.required(entry, "fx", "a camera (or fov_deg)"), 1, 1e6,
-                           "camera fx");
+    c.fx =
+        reader.numberIn(reader.required(entry, "fx", "a camera (or fov_deg)"), 1, 1e6, "camera fx");
   }
   c.fy = reader.numberIn(entry, "fy", c.fx, 1, 1e6, "camera fy");
   c.cx = reader.numberIn(entry, "cx", (c.width - 1) / 2.0, -1e6, 1e6, "camera cx");

@@ -25,8 +25,9 @@ struct Calibration {
   int width = 640;
   int height = 480;
   double fx = 400, fy = 400, cx = 319.5, cy = 239.5;
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();    // the optical centre, world frame
-  Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();  // camera to world (columns: x, y, z axes)
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();  // the optical centre, world frame
+  Eigen::Matrix3d rotation =
+      Eigen::Matrix3d::Identity();  // camera to world (columns: x, y, z axes)
 
   Eigen::Vector3d toCamera(const Eigen::Vector3d& world) const;
   // The pixel showing `world`; nullopt when it is behind the camera (or on

@@ -58,7 +58,8 @@ void CameraNode::findWorld() {
   kernel_->cancelTimer(*findTimer_);
   findTimer_.reset();
   kernel_->subscribe(Pattern::exact(world, "physics.world"));
-  worldCallback_ = kernel_->onChange(Pattern::exact(world, "physics.world"), [this](const Tuple& t) { onWorld(t); });
+  worldCallback_ = kernel_->onChange(Pattern::exact(world, "physics.world"),
+                                     [this](const Tuple& t) { onWorld(t); });
   if (auto known = kernel_->get(world, "physics.world")) onWorld(*known);
   kernel_->setMeta(metaInputKey("physics"), world, "physics.scene");
 }
@@ -71,7 +72,8 @@ void CameraNode::onWorld(const Tuple& t) {
       const CameraSpec* named = world->camera(config_.camera);
       if (named == nullptr) {
         component_->fail("the world has no camera '" + config_.camera + "'");
-        std::cerr << "peis-camera: the world " << t.fullName() << " has no camera '" << config_.camera << "'\n";
+        std::cerr << "peis-camera: the world " << t.fullName() << " has no camera '"
+                  << config_.camera << "'\n";
         return;
       }
       spec = *named;
@@ -128,8 +130,10 @@ void CameraNode::renderLoop() {
         if (due) lastSlot_ = slot;
       }
       if (due)
-        image = encodeImage(renderView(*world, *light, scene, spec, config_.seed * 1000003u + static_cast<std::uint64_t>(time * 1000)),
-                            config_.format);
+        image = encodeImage(
+            renderView(*world, *light, scene, spec,
+                       config_.seed * 1000003u + static_cast<std::uint64_t>(time * 1000)),
+            config_.format);
     } catch (const std::exception& e) {
       std::cerr << "peis-camera: ignored a scene: " << e.what() << "\n";
     }

@@ -86,8 +86,7 @@ cv::Mat decodeImage(const std::string& mimetype, const std::string& data, std::s
             " (at most 8192 x 8192)";
       return {};
     }
-    const cv::Mat bytes(1, static_cast<int>(data.size()), CV_8UC1,
-                        const_cast<char*>(data.data()));
+    const cv::Mat bytes(1, static_cast<int>(data.size()), CV_8UC1, const_cast<char*>(data.data()));
     cv::Mat image = cv::imdecode(bytes, cv::IMREAD_COLOR);
     if (image.empty()) why = "image/png data that is not a PNG image";
     return image;
@@ -114,8 +113,10 @@ cv::Mat decodeImage(const std::string& mimetype, const std::string& data, std::s
   const cv::Mat view(height, width, channels == 3 ? CV_8UC3 : CV_8UC1,
                      const_cast<char*>(data.data()));
   cv::Mat image;
-  if (channels == 3) image = view.clone();
-  else cv::cvtColor(view, image, cv::COLOR_GRAY2BGR);
+  if (channels == 3)
+    image = view.clone();
+  else
+    cv::cvtColor(view, image, cv::COLOR_GRAY2BGR);
   return image;
 }
 

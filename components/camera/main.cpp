@@ -5,6 +5,7 @@
 #include <string>
 
 #include "camera_node.h"
+#include "common/command_line.h"
 #include "peis/error.h"
 #include "peis/options.h"
 
@@ -29,39 +30,19 @@ const char* kUsage =
     "\n"
     "The PEIS is named camera-NAME unless --peis-name says otherwise.\n";
 
-bool parseNumber(const char* text, double low, double high, double* out) {
-  if (text == nullptr || *text == '\0') return false;
-  char* end = nullptr;
-  errno = 0;
-  const double value = std::strtod(text, &end);
-  if (errno != 0 || *end != '\0' || !(value >= low && value <= high)) return false;
-  *out = value;
-  return true;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
+  using namespace peis::components;
   peis::camera::CameraConfig config;
-  try {
-    config.peis = peis::Options::fromArgs(argc, argv);
-  } catch (const peis::Error& e) {
-    std::cerr << "peis-camera: " << e.what() << "\n";
-    return 2;
-  }
-  if (config.peis.help) {
-    std::cout << kUsage << "\nPEIS options:\n" << peis::Options::helpText();
-    return 0;
-  }
+  if (auto done = parsePeisOptions(argc, argv, "peis-camera", kUsage, "", config.peis))
+    return *done;
   std::string calibrationPath;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     const char* value = i + 1 < argc ? argv[i + 1] : nullptr;
     double n = 0;
-    auto bad = [&](const std::string& why) {
-      std::cerr << "peis-camera: " << arg << ": " << why << " (see --help)\n";
-      return 2;
-    };
+    auto bad = [&](const std::string& why) { return badArgument("peis-camera", arg, why); };
     if (arg == "--camera" && value != nullptr) {
       config.camera = value;
     } else if (arg == "--calibration" && value != nullptr) {
@@ -76,15 +57,17 @@ int main(int argc, char** argv) {
       config.noise = n;
     } else if (arg == "--format" && value != nullptr) {
       const std::string format = value;
-      if (format == "raw") config.format = peis::camera::ImageFormat::Raw;
-      else if (format == "png") config.format = peis::camera::ImageFormat::Png;
-      else return bad("takes raw or png");
+      if (format == "raw")
+        config.format = peis::camera::ImageFormat::Raw;
+      else if (format == "png")
+        config.format = peis::camera::ImageFormat::Png;
+      else
+        return bad("takes raw or png");
     } else if (arg == "--seed" && value != nullptr) {
       if (!parseNumber(value, 0, 1e15, &n)) return bad("takes an integer >= 0");
       config.seed = static_cast<std::uint64_t>(n);
     } else {
-      return bad(value == nullptr && arg.rfind("--", 0) == 0 ? "needs a value or is unknown"
-                                                             : "unknown argument");
+      return bad(unknownArgument(arg, value));
     }
     ++i;
   }

@@ -2,9 +2,9 @@
 #include "camera/render_view.h"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <mutex>
-#include <cmath>
 #include <opencv2/imgproc.hpp>
 
 namespace peis::camera {
@@ -82,7 +82,8 @@ class Painter {
       if (outward.dot(Vec2{eye.x() - a.x, eye.y() - a.y}) <= 0) continue;  // faces away
       const double length = outward.norm();
       const Vec2 front = (a + b) * 0.5 + (length > 0 ? outward * (0.05 / length) : Vec2{});
-      fill({{a.x, a.y, p.z0}, {b.x, b.y, p.z0}, {b.x, b.y, p.z1}, {a.x, a.y, p.z1}}, shade(front, 0.8));
+      fill({{a.x, a.y, p.z0}, {b.x, b.y, p.z0}, {b.x, b.y, p.z1}, {a.x, a.y, p.z1}},
+           shade(front, 0.8));
     }
     if (eye.z() > p.z1) {
       std::vector<Eigen::Vector3d> lid;
@@ -119,8 +120,8 @@ void drawFloor(cv::Mat& image, const sim::World& world, const sim::LightModel& l
   for (int r = 0; r < rows; ++r)
     for (int col = 0; col < columns; ++col) {
       const auto floor = c.intersectHeight(col * step, r * step, 0);
-      const double lux = floor ? light.floorIlluminance(state, {floor->x(), floor->y()})
-                               : world.ambientLux;
+      const double lux =
+          floor ? light.floorIlluminance(state, {floor->x(), floor->y()}) : world.ambientLux;
       gain.at<float>(r, col) = static_cast<float>(std::min(255.0 / 64, lux / spec.exposureLux));
     }
   // In 8-bit fixed point (gain x 64, so up to 4): cheap on whole images.
@@ -154,7 +155,8 @@ std::vector<Prism> solids(const sim::World& world, const sim::Scene& scene) {
         all.push_back(prism(box, 0, wall.height, wall.colour));
       }
     }
-  for (const sim::Furniture& f : world.furniture) all.push_back(prism(f.polygon, 0, f.height, f.colour));
+  for (const sim::Furniture& f : world.furniture)
+    all.push_back(prism(f.polygon, 0, f.height, f.colour));
   for (std::size_t i = 0; i < world.lamps.size(); ++i) {
     const sim::Lamp& lamp = world.lamps[i];
     Prism pole = prism(disk(lamp.position, 0.03, 8), 0, lamp.height - 0.3, lamp.colour);
@@ -175,8 +177,9 @@ std::vector<Prism> solids(const sim::World& world, const sim::Scene& scene) {
     for (const sim::Furniture& f : world.furniture)
       if (sim::insidePolygon(f.polygon, person.pose.position())) floor = std::max(floor, f.height);
     // Lying on furniture (Johanna in bed), else standing.
-    Polygon body = floor > 0 ? sim::box(person.pose.position(), {1.6, 0.45}, person.pose.theta + M_PI / 2)
-                             : disk(person.pose.position(), 0.2, 12);
+    Polygon body = floor > 0
+                       ? sim::box(person.pose.position(), {1.6, 0.45}, person.pose.theta + M_PI / 2)
+                       : disk(person.pose.position(), 0.2, 12);
     all.push_back(prism(body, floor, floor + (floor > 0 ? 0.2 : 1.7), person.colour));
   }
   for (std::size_t i = 0; i < world.robots.size(); ++i) {
@@ -248,8 +251,9 @@ cv::Mat renderView(const sim::World& world, const sim::LightModel& light, const 
   }
   std::vector<std::size_t> order(all.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::stable_sort(order.begin(), order.end(),
-                   [&](std::size_t a, std::size_t b) { return groupDistance[a] > groupDistance[b]; });
+  std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return groupDistance[a] > groupDistance[b];
+  });
   Painter painter(c, image);
   for (std::size_t i : order) {
     const Prism& p = all[i];
@@ -266,8 +270,10 @@ cv::Mat renderView(const sim::World& world, const sim::LightModel& light, const 
 double meanBrightness(const cv::Mat& image) {
   if (image.empty()) return 0;
   cv::Mat grey;
-  if (image.channels() == 3) cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
-  else grey = image;
+  if (image.channels() == 3)
+    cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  else
+    grey = image;
   return cv::mean(grey)[0];
 }
 

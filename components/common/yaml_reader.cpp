@@ -97,8 +97,11 @@ std::string YamlReader::text(const YAML::Node& node, const std::string& what) co
 std::string YamlReader::name(const YAML::Node& node, const std::string& what) const {
   const std::string value = text(node, what);
   bool ok = !value.empty() && value.size() <= 64;
-  for (const unsigned char c : value) ok = ok && c > 0x20 && c < 0x7f && c != '.' && c != '*' && c != '=';
-  if (!ok) fail(node, what + " '" + value + "' must be one key part (1..64 bytes, no '.', '*', '=', spaces)");
+  for (const unsigned char c : value)
+    ok = ok && c > 0x20 && c < 0x7f && c != '.' && c != '*' && c != '=';
+  if (!ok)
+    fail(node,
+         what + " '" + value + "' must be one key part (1..64 bytes, no '.', '*', '=', spaces)");
   return value;
 }
 

@@ -50,7 +50,8 @@ std::vector<Detection> HatDetector::detect(const cv::Mat& bgr) {
     if (hi[t].x < 0) continue;
     const cv::Rect box(lo[t], hi[t] + cv::Point(1, 1));
     const cv::Mat mask = labels_(box) == static_cast<int>(t + 1);
-    const int count = cv::connectedComponentsWithStats(mask, components_, stats_, centroids_, 8, CV_32S);
+    const int count =
+        cv::connectedComponentsWithStats(mask, components_, stats_, centroids_, 8, CV_32S);
     int best = -1, bestArea = settings_.minArea - 1;
     for (int c = 1; c < count; ++c) {
       const int area = stats_.at<int>(c, cv::CC_STAT_AREA);
@@ -62,8 +63,8 @@ std::vector<Detection> HatDetector::detect(const cv::Mat& bgr) {
       if (!cut && area > bestArea) best = c, bestArea = area;
     }
     if (best < 0) continue;
-    found.push_back({t, box.x + centroids_.at<double>(best, 0), box.y + centroids_.at<double>(best, 1),
-                     bestArea});
+    found.push_back({t, box.x + centroids_.at<double>(best, 0),
+                     box.y + centroids_.at<double>(best, 1), bestArea});
   }
   return found;
 }

@@ -5,6 +5,7 @@
 #include <iostream>
 #include <string>
 
+#include "common/command_line.h"
 #include "peis/error.h"
 #include "peis/options.h"
 #include "tracker_node.h"
@@ -39,40 +40,19 @@ const char* kUsage =
     "\n"
     "The PEIS is named 'tracker' unless --peis-name says otherwise.\n";
 
-bool parseNumber(const char* text, double low, double high, double* out) {
-  if (text == nullptr || *text == '\0') return false;
-  char* end = nullptr;
-  errno = 0;
-  const double value = std::strtod(text, &end);
-  if (errno != 0 || *end != '\0' || !(value >= low && value <= high)) return false;
-  *out = value;
-  return true;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
+  using namespace peis::components;
   peis::tracking::TrackerConfig config;
-  try {
-    config.peis = peis::Options::fromArgs(argc, argv);
-    if (config.peis.name.empty() || config.peis.name == config.peis.programName) config.peis.name = "tracker";
-  } catch (const peis::Error& e) {
-    std::cerr << "peis-tracker: " << e.what() << "\n";
-    return 2;
-  }
-  if (config.peis.help) {
-    std::cout << kUsage << "\nPEIS options:\n" << peis::Options::helpText();
-    return 0;
-  }
+  if (auto done = parsePeisOptions(argc, argv, "peis-tracker", kUsage, "tracker", config.peis))
+    return *done;
   std::string targetsPath;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     const char* value = i + 1 < argc ? argv[i + 1] : nullptr;
     double n = 0;
-    auto bad = [&](const std::string& why) {
-      std::cerr << "peis-tracker: " << arg << ": " << why << " (see --help)\n";
-      return 2;
-    };
+    auto bad = [&](const std::string& why) { return badArgument("peis-tracker", arg, why); };
     const auto ms = [&](double high) { return parseNumber(value, 1, high, &n); };
     if (arg == "--targets" && value != nullptr) {
       targetsPath = value;
@@ -106,8 +86,7 @@ int main(int argc, char** argv) {
       if (!ms(60000)) return bad("takes 1..60000");
       config.maxSkew = std::chrono::microseconds(static_cast<long>(n * 1000));
     } else {
-      return bad(value == nullptr && arg.rfind("--", 0) == 0 ? "needs a value or is unknown"
-                                                             : "unknown argument");
+      return bad(unknownArgument(arg, value));
     }
     ++i;
   }
@@ -122,9 +101,9 @@ int main(int argc, char** argv) {
               << "' on port " << node.kernel().port() << std::endl;
     const std::string why = node.run();
     const auto s = node.stats();
-    std::cerr << "peis-tracker: " << why << "; images " << s.images << ", not images " << s.notImages
-              << ", without calibration " << s.noCalibration << ", wrong size " << s.wrongSize
-              << ", fixes " << s.fixes << std::endl;
+    std::cerr << "peis-tracker: " << why << "; images " << s.images << ", not images "
+              << s.notImages << ", without calibration " << s.noCalibration << ", wrong size "
+              << s.wrongSize << ", fixes " << s.fixes << std::endl;
     return 0;
   } catch (const peis::Error& e) {
     std::cerr << "peis-tracker: " << e.what() << "\n";

@@ -15,9 +15,12 @@ double hueOf(int r, int g, int b) {
   const double max = std::max({r, g, b}), min = std::min({r, g, b});
   if (max - min < 1e-9) return 0;
   double degrees;
-  if (max == r) degrees = 60 * std::fmod((g - b) / (max - min), 6.0);
-  else if (max == g) degrees = 60 * ((b - r) / (max - min) + 2);
-  else degrees = 60 * ((r - g) / (max - min) + 4);
+  if (max == r)
+    degrees = 60 * std::fmod((g - b) / (max - min), 6.0);
+  else if (max == g)
+    degrees = 60 * ((b - r) / (max - min) + 2);
+  else
+    degrees = 60 * ((r - g) / (max - min) + 4);
   if (degrees < 0) degrees += 360;
   return degrees / 2;
 }
@@ -39,7 +42,8 @@ double colourHue(const components::YamlReader& r, const YAML::Node& colour) {
 std::vector<Target> parseTargets(std::string_view text, const std::string& origin) {
   const components::YamlReader r(origin);
   const YAML::Node root = r.parse(text);
-  if (!root.IsMap()) r.fail(root, "a targets file must be a mapping with 'targets' (or a world file)");
+  if (!root.IsMap())
+    r.fail(root, "a targets file must be a mapping with 'targets' (or a world file)");
   std::vector<Target> targets;
   if (root["targets"]) {
     r.onlyKeys(root, {"targets"}, "a targets file");
@@ -73,7 +77,8 @@ std::vector<Target> parseTargets(std::string_view text, const std::string& origi
   for (std::size_t i = 0; i < targets.size(); ++i)
     for (std::size_t j = 0; j < i; ++j)
       if (targets[i].name == targets[j].name)
-        throw Error(ErrorCode::InvalidConfig, origin + ": target '" + targets[i].name + "' is declared twice");
+        throw Error(ErrorCode::InvalidConfig,
+                    origin + ": target '" + targets[i].name + "' is declared twice");
   return targets;
 }
 

@@ -12,9 +12,9 @@ namespace peis::tracking {
 
 struct Target {
   std::string name;
-  double hue = 0;      // OpenCV hue, 0..180 (degrees / 2)
-  double height = 0.5; // metres: the top of the hat above the floor
-  double radius = 0.1; // metres: the hat's radius
+  double hue = 0;       // OpenCV hue, 0..180 (degrees / 2)
+  double height = 0.5;  // metres: the top of the hat above the floor
+  double radius = 0.1;  // metres: the hat's radius
 };
 
 // Throws Error(InvalidConfig) "file:line: problem".

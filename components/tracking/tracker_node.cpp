@@ -44,14 +44,16 @@ TrackerNode::TrackerNode(TrackerConfig config)
   cameras_.resize(static_cast<std::size_t>(config_.cameras));
   for (std::size_t k = 0; k < cameras_.size(); ++k) {
     cameras_[k].input = "camera" + std::to_string(k + 1);
-    component_->input(cameras_[k].input, config_.freshness, [this, k](const Tuple& t) { onImage(k, t); });
+    component_->input(cameras_[k].input, config_.freshness,
+                      [this, k](const Tuple& t) { onImage(k, t); });
   }
   statsTimer_ = kernel_->every(std::chrono::seconds(1), [this] {
     const Stats s = stats();
     kernel_->set("tracker.stats", "images " + std::to_string(s.images) + " not-images " +
                                       std::to_string(s.notImages) + " no-calibration " +
                                       std::to_string(s.noCalibration) + " wrong-size " +
-                                      std::to_string(s.wrongSize) + " fixes " + std::to_string(s.fixes));
+                                      std::to_string(s.wrongSize) + " fixes " +
+                                      std::to_string(s.fixes));
   });
   component_->start();
 }
@@ -102,7 +104,8 @@ void TrackerNode::watchCalibration(Camera& camera, PeisId owner, const std::stri
 void TrackerNode::onImage(std::size_t index, const Tuple& t) {
   Camera& camera = cameras_[index];
   const std::string key = calibrationKeyOf(t.key);
-  if (t.owner != camera.calibrationOwner || key != camera.calibrationKey) watchCalibration(camera, t.owner, key);
+  if (t.owner != camera.calibrationOwner || key != camera.calibrationKey)
+    watchCalibration(camera, t.owner, key);
   std::string why;
   const cv::Mat image = camera::decodeImage(t.mimetype, t.data, why);
   if (image.empty()) {
@@ -118,7 +121,8 @@ void TrackerNode::onImage(std::size_t index, const Tuple& t) {
       std::lock_guard lock(statsMu_);
       ++stats_.noCalibration;
     }
-    problem(camera, "no calibration at " + std::to_string(t.owner) + "." + key + " (yet); image ignored");
+    problem(camera,
+            "no calibration at " + std::to_string(t.owner) + "." + key + " (yet); image ignored");
     return;
   }
   if (image.cols != camera.calibration->width || image.rows != camera.calibration->height) {
@@ -126,8 +130,9 @@ void TrackerNode::onImage(std::size_t index, const Tuple& t) {
       std::lock_guard lock(statsMu_);
       ++stats_.wrongSize;
     }
-    problem(camera, "dropped an image of " + std::to_string(image.cols) + "x" + std::to_string(image.rows) +
-                        " (the calibration is for " + std::to_string(camera.calibration->width) + "x" +
+    problem(camera, "dropped an image of " + std::to_string(image.cols) + "x" +
+                        std::to_string(image.rows) + " (the calibration is for " +
+                        std::to_string(camera.calibration->width) + "x" +
                         std::to_string(camera.calibration->height) + ")");
     return;
   }
@@ -155,8 +160,19 @@ void TrackerNode::trySolve(Timestamp moment) {
 }
 
 void TrackerNode::solve(Timestamp moment) {
-  if (lastSolved_ && moment <= *lastSolved_) return;
+  // A moment is solved once, and again only when more of its images came
+  // (a camera that was late): never an older moment.
+  std::size_t images = 0;
+  for (const Camera& c : cameras_)
+    if (c.calibration && c.frameTime) {
+      const auto skew = *c.frameTime > moment ? *c.frameTime - moment : moment - *c.frameTime;
+      images += skew <= config_.maxSkew;
+    }
+  if (lastSolved_ &&
+      (moment < *lastSolved_ || (moment == *lastSolved_ && images <= lastSolvedImages_)))
+    return;
   lastSolved_ = moment;
+  lastSolvedImages_ = images;
   for (std::size_t t = 0; t < config_.targets.size(); ++t) {
     std::vector<Sighting> sightings;
     Timestamp newest = kNoTime;

@@ -1,8 +1,8 @@
 // TrackerNode: camera tracking localization as a PEIS (peis-tracker). Its
 // inputs mi-camera1..mi-cameraN are meta tuples a configurator points at
 // cameras' `image` tuples; the calibration is read from the tuple beside
-// each image (`image` -> `calibration`, `left.image` -> `left.calibration`). Each image is decoded, its hats detected; the
-// images of one moment (the same simulated time within a skew) are
+// each image (`image` -> `calibration`, `left.image` -> `left.calibration`). Each image is decoded,
+// its hats detected; the images of one moment (the same simulated time within a skew) are
 // triangulated together, and `position.<robot>` is published for every
 // robot seen by at least one camera (docs/components/tracking.md).
 #pragma once
@@ -72,6 +72,7 @@ class TrackerNode {
   HatDetector detector_;
   std::vector<Camera> cameras_;  // touched on the kernel thread only
   std::optional<Timestamp> lastSolved_;
+  std::size_t lastSolvedImages_ = 0;
   Stats stats_;
   mutable std::mutex statsMu_;
   std::optional<TimerHandle> statsTimer_;

@@ -110,7 +110,8 @@ std::optional<Fix> triangulate(const std::vector<Sighting>& sightings, double he
       if (!fix || std::abs(fix->point.z() - height) > noise.gate) continue;
       auto [inliers, residuals] = agreeing(*fix);
       if (inliers.size() < 2) continue;
-      if (inliers.size() > best.size() || (inliers.size() == best.size() && residuals < bestResiduals)) {
+      if (inliers.size() > best.size() ||
+          (inliers.size() == best.size() && residuals < bestResiduals)) {
         best = std::move(inliers);
         bestResiduals = residuals;
       }

@@ -30,11 +30,12 @@ struct NoiseModel {
 struct Fix {
   Eigen::Vector3d point = Eigen::Vector3d::Zero();
   Eigen::Matrix2d covariance = Eigen::Matrix2d::Zero();  // of x, y (m²)
-  int cameras = 0;                                        // rays used
+  int cameras = 0;                                       // rays used
 };
 
 // Ground-plane (hat-plane) intersection of one sighting.
-std::optional<Fix> intersectHeight(const Sighting& sighting, double height, const NoiseModel& noise);
+std::optional<Fix> intersectHeight(const Sighting& sighting, double height,
+                                   const NoiseModel& noise);
 // Any number of sightings: none gives nothing, one the height-plane fix;
 // with two or more, the largest set of rays that agree within the gate (found
 // from every pair) is solved together; if no two agree, nothing.

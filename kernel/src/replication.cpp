@@ -24,7 +24,7 @@ Tuple withoutData(const Tuple& t) {
 
 Replication::Replication(TupleSpace& space, std::uint64_t incarnation,
                          std::chrono::milliseconds lease)
-    : space_(space), incarnation_(incarnation), lease_(lease) {}
+    : space_(space), incarnation_(incarnation), lease_(lease), outbox_(space.self(), incarnation) {}
 
 void Replication::onLocalEvent(EventKind kind, const TuplePtr& tuple) {
   if (tuple->owner != space_.self()) return;
@@ -316,19 +316,6 @@ void Replication::onIndirectRemoved(CallbackId indirect) {
   }
 }
 
-void Replication::forgetPending(PeisId destination) {
-  for (auto it = pendingUpdates_.lower_bound({destination, {}});
-       it != pendingUpdates_.end() && it->first.first == destination;) {
-    it = pendingUpdates_.erase(it);
-  }
-}
-
-void Replication::push(Outgoing outgoing) {
-  // Nothing coalesces across another message to the same destination.
-  forgetPending(outgoing.destination);
-  outbox_.push_back(std::move(outgoing));
-}
-
 void Replication::pushUpdate(PeisId destination, const TuplePtr& tuple,
                              std::uint32_t maxDataBytes) {
   if (tuple->data.size() > maxDataBytes) {
@@ -338,101 +325,13 @@ void Replication::pushUpdate(PeisId destination, const TuplePtr& tuple,
         wire::TupleWithheld{incarnation_, destination, maxDataBytes,
                             static_cast<std::uint32_t>(tuple->data.size()), withoutData(*tuple)}});
   }
-  const bool big = tuple->data.size() >= wire::kZeroCopyDataBytes;
-  if (outboxBytes_ < kTrackOutboxAbove && !big) return appendFrame(destination, *tuple);
-  if (outboxBytes_ < kTrackOutboxAbove) {
-    // A big tuple is not copied into a frame: the link writes its data from
-    // the tuple itself.
-    forgetPending(destination);
-    outbox_.emplace_back(destination, tuple);
-    outboxBytes_ += wire::tupleUpdateFrameBytes(*tuple);
-    return;
-  }
-  // Backed up (the links are congested): queue the tuple itself, so that a
-  // newer value can still take its place.
-  const auto bytes = wire::tupleUpdateFrameBytes(*tuple);
-  auto key = std::make_pair(destination, tuple->key);
-  auto it = pendingUpdates_.find(key);
-  if (outboxBytes_ >= kCoalesceOutboxAbove && it != pendingUpdates_.end() &&
-      it->second >= outboxBase_) {
-    // Overload: the owner writes faster than the network drains. Keep the
-    // newest value in the place of the one still waiting (latest value).
-    auto& waiting = outbox_[it->second - outboxBase_];
-    outboxBytes_ = outboxBytes_ + bytes - wire::tupleUpdateFrameBytes(*waiting.update);
-    waiting.update = tuple;
-    ++coalesced_;
-    return;
-  }
-  pendingUpdates_.insert_or_assign(std::move(key), outboxBase_ + outbox_.size());
-  outbox_.emplace_back(destination, tuple);
-  outboxBytes_ += bytes;
-}
-
-void Replication::appendFrame(PeisId destination, const Tuple& tuple) {
-  const bool extend = !outbox_.empty() && outbox_.back().destination == destination &&
-                      outbox_.back().frameCount > 0 &&
-                      outbox_.back().frames.size() < kFramesPerEntryBytes;
-  if (!extend) {
-    forgetPending(destination);  // no waiting update may be replaced across these frames
-    outbox_.emplace_back().destination = destination;
-    if (!spareFrames_.empty()) {
-      outbox_.back().frames = std::move(spareFrames_.back());
-      spareFrames_.pop_back();
-    } else {
-      outbox_.back().frames.reserve(4096);
-    }
-  }
-  auto& entry = outbox_.back();
-  const auto before = entry.frames.size();
-  wire::encodeTupleUpdate(wire::Envelope{space_.self(), destination, wire::kDefaultTtl},
-                          incarnation_, tuple, entry.frames);
-  ++entry.frameCount;
-  outboxBytes_ += entry.frames.size() - before;
+  outbox_.pushUpdate(destination, tuple);
 }
 
 std::vector<Replication::Outgoing> Replication::takeOutbox(std::size_t most) {
   std::vector<Outgoing> out;
-  takeOutbox(out, most);
+  outbox_.take(out, most);
   return out;
-}
-
-void Replication::takeOutbox(std::vector<Outgoing>& out, std::size_t most, std::size_t mostBytes) {
-  std::size_t count = 0, bytes = 0;
-  while (count < most && !outbox_.empty() && (count == 0 || bytes < mostBytes)) {
-    auto& front = outbox_.front();
-    const auto entryBytes =
-        front.frames.size() + (front.update ? wire::tupleUpdateFrameBytes(*front.update) : 0);
-    bytes += entryBytes;
-    outboxBytes_ -= std::min(outboxBytes_, entryBytes);
-    out.push_back(std::move(front));
-    outbox_.pop_front();
-    ++count;
-  }
-  outboxBase_ += count;
-  if (outbox_.empty()) {
-    pendingUpdates_.clear();
-    outboxBytes_ = 0;
-  }
-}
-
-void Replication::recycleFrames(std::string&& frames) {
-  constexpr std::size_t kSpares = 4;
-  if (spareFrames_.size() >= kSpares || frames.capacity() > 2 * kFramesPerEntryBytes) return;
-  frames.clear();
-  spareFrames_.push_back(std::move(frames));
-}
-
-void Replication::onSelfChanged() {
-  std::deque<Outgoing> keep;
-  for (auto& out : outbox_) {
-    if (out.frameCount == 0) keep.push_back(std::move(out));
-  }
-  outbox_ = std::move(keep);
-  pendingUpdates_.clear();
-  outboxBytes_ = 0;
-  for (const auto& out : outbox_) {
-    if (out.update) outboxBytes_ += wire::tupleUpdateFrameBytes(*out.update);
-  }
 }
 
 }  // namespace peis

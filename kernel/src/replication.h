@@ -5,7 +5,7 @@
 // when an owner appears or restarts, accepting updates in seqno order per
 // owner incarnation; the space keeps the incarnations). An owner sends a
 // value over a subscriber's data limit as TupleWithheld, not as an update
-// the subscriber would have to drop. Its output is an outbox of messages that the Kernel
+// the subscriber would have to drop. Its output is the outbox (outbox.h) that the Kernel
 // hands to the Network on the kernel thread. Every method is called with
 // the Kernel's lock held.
 #pragma once
@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "net/wire.h"
+#include "outbox.h"
 #include "peis/kernel.h"
 #include "tuple_space.h"
 
@@ -29,22 +30,7 @@ class Replication {
  public:
   using SteadyTime = std::chrono::steady_clock::time_point;
 
-  // One entry of the outbox, for one destination: a run of tuple updates
-  // already encoded as whole frames (the usual case: encoded on the writing
-  // thread, so the kernel thread only hands bytes to a link), one update
-  // kept as a tuple (queued while the outbox is backed up, so a newer value
-  // can still replace it; encoded when sent), or another routed body.
-  struct Outgoing {
-    Outgoing() = default;
-    Outgoing(PeisId to, TuplePtr tuple) : destination(to), update(std::move(tuple)) {}
-    Outgoing(PeisId to, std::nullptr_t, wire::RoutedBody message)
-        : destination(to), body(std::make_unique<wire::RoutedBody>(std::move(message))) {}
-    PeisId destination = 0;
-    TuplePtr update;
-    std::unique_ptr<wire::RoutedBody> body;
-    std::string frames;  // whole TupleUpdate frames, length prefixes included
-    std::uint32_t frameCount = 0;
-  };
+  using Outgoing = Outbox::Outgoing;
 
   Replication(TupleSpace& space, std::uint64_t incarnation, std::chrono::milliseconds lease);
 
@@ -91,28 +77,23 @@ class Replication {
   // Also subscribe to the meta tuple of an indirect callback when remote.
   void trackIndirectMeta(CallbackId indirect, const TupleRef& meta);
 
-  // Takes up to `most` outbox entries, oldest first, and stops early once
-  // the entries taken carry `mostBytes` of updates.
+  // The outbox (outbox.h): what this PEIS sends, per destination.
+  Outbox& outbox() { return outbox_; }
+  // Shorthands of the outbox (the tests read it through them).
   std::vector<Outgoing> takeOutbox(std::size_t most = SIZE_MAX);
-  // The same, appended to `out` (whose memory the caller reuses).
-  void takeOutbox(std::vector<Outgoing>& out, std::size_t most, std::size_t mostBytes = SIZE_MAX);
-  // Updates replaced in the outbox by a newer value of the same tuple.
-  std::uint64_t coalesced() const { return coalesced_; }
-  // Bytes of tuple updates waiting in the outbox above which an update is
-  // queued as a tuple (and its position remembered), and above which a newer
-  // value replaces a remembered one still waiting (docs/protocol.md §13).
-  static constexpr std::size_t kTrackOutboxAbove = 2u << 20;
-  static constexpr std::size_t kCoalesceOutboxAbove = 4u << 20;
-  // Encoded frames per outbox entry, at most (about; one frame may exceed it).
-  static constexpr std::size_t kFramesPerEntryBytes = 64u << 10;
-  std::size_t outboxBytes() const { return outboxBytes_; }
+  void takeOutbox(std::vector<Outgoing>& out, std::size_t most, std::size_t mostBytes = SIZE_MAX) {
+    outbox_.take(out, most, mostBytes);
+  }
+  bool hasOutgoing() const { return !outbox_.empty(); }
+  std::size_t outboxBytes() const { return outbox_.bytes(); }
+  std::uint64_t coalesced() const { return outbox_.coalesced(); }
+  void recycleFrames(std::string&& frames) { outbox_.recycleFrames(std::move(frames)); }
+  static constexpr std::size_t kTrackOutboxAbove = Outbox::kTrackAbove;
+  static constexpr std::size_t kCoalesceOutboxAbove = Outbox::kCoalesceAbove;
+  static constexpr std::size_t kFramesPerEntryBytes = Outbox::kFramesPerEntryBytes;
   // This PEIS took a new id: frames encoded with the old one are dropped
   // (subscribers re-sync with the new id).
-  void onSelfChanged();
-  // Gives back the memory of an entry's frames once they were handed on, for
-  // the next run of frames (a stream then allocates none).
-  void recycleFrames(std::string&& frames);
-  bool hasOutgoing() const { return !outbox_.empty(); }
+  void onSelfChanged() { outbox_.changeSelf(space_.self()); }
   std::uint64_t staleDropped() const { return staleDropped_; }
   // Renewals that showed a subscriber missing values, answered by a resync.
   std::uint64_t resyncs() const { return resyncs_; }
@@ -148,16 +129,9 @@ class Replication {
   std::map<CallbackId, SubscriptionHandle> indirectTargets_;
   std::map<CallbackId, SubscriptionHandle> indirectMetas_;
   std::set<PeisId> reachable_;
-  void push(Outgoing outgoing);
+  void push(Outgoing outgoing) { outbox_.push(std::move(outgoing)); }
   void pushUpdate(PeisId destination, const TuplePtr& tuple, std::uint32_t maxDataBytes);
-  void appendFrame(PeisId destination, const Tuple& tuple);
-  void forgetPending(PeisId destination);
-  std::deque<Outgoing> outbox_;
-  std::size_t outboxBytes_ = 0;  // of updates (frames and tuples) waiting
-  std::vector<std::string> spareFrames_;
-  std::uint64_t outboxBase_ = 0;  // absolute index of outbox_.front()
-  std::map<std::pair<PeisId, std::string>, std::uint64_t> pendingUpdates_;
-  std::uint64_t coalesced_ = 0;
+  Outbox outbox_;
   SubscriptionHandle nextHandle_ = 1;
   std::uint64_t nextWireId_ = 1;
   std::uint64_t staleDropped_ = 0;

@@ -33,7 +33,7 @@ functionalities:
   - name: track
     inputs:
       - name: target
-        type: pose2d
+        type: goal2d
     outputs:
       - name: position
         type: pose2d
@@ -85,7 +85,7 @@ TEST_CASE("fromYaml reads a full descriptor", "[unit][descriptor]") {
   const auto& track = d.functionalities[1];
   CHECK(track.name == "track");
   CHECK(track.description.empty());
-  CHECK(track.inputs == std::vector<Port>{{"target", "pose2d"}});
+  CHECK(track.inputs == std::vector<Port>{{"target", "goal2d"}});
   CHECK(track.outputs == std::vector<Port>{{"position", "pose2d"}});
   CHECK(track.preconditions.empty());
   CHECK(track.cost == 0.0);
@@ -121,7 +121,7 @@ TEST_CASE("toYaml round-trips through fromYaml", "[unit][descriptor]") {
     f.description = "Plans: a path, from 'here' to \"there\" # not a comment";
     f.inputs = {{"goal", "pose2d"}, {"map", "grid/occupancy"}};
     f.outputs = {{"path", "path2d"}};
-    f.preconditions = {"map-loaded", "localized: yes"};
+    f.preconditions = {"map-loaded", "localized(yes)"};
     f.cost = 0.1;
     d.functionalities.push_back(f);
     peis::Functionality g;
@@ -221,8 +221,8 @@ TEST_CASE("inputs, outputs, preconditions and functionalities must be lists",
 TEST_CASE("ports need a key-part name and a one-word type", "[unit][descriptor]") {
   const std::string head = "component: a\nfunctionalities:\n  - name: f\n    inputs:\n";
   CHECK_THAT(failure(head + "      - {name: x, type: pose 2d}\n"),
-             StartsWith("camera.yaml:5:") && Contains("type") && Contains("one word"));
-  CHECK_THAT(failure(head + "      - {name: x, type: \"\"}\n"), Contains("one word"));
+             StartsWith("camera.yaml:5:") && Contains("type") && Contains("not a term"));
+  CHECK_THAT(failure(head + "      - {name: x, type: \"\"}\n"), Contains("not a term"));
   CHECK_THAT(failure(head + "      - {name: a.b, type: t}\n"),
              StartsWith("camera.yaml:5:") && Contains("'a.b'"));
   CHECK_THAT(failure(head + "      - {name: x}\n"), Contains("inputs type is missing"));
@@ -263,4 +263,77 @@ TEST_CASE("formatPorts writes name:type pairs separated by spaces", "[unit][desc
   CHECK(peis::formatPorts({{"image", "image/jpeg"}}) == "image:image/jpeg");
   CHECK(peis::formatPorts({{"goal", "pose2d"}, {"map", "grid"}, {"speed", "double"}}) ==
         "goal:pose2d map:grid speed:double");
+}
+
+// The planner's schema (docs/configuration.md): typed terms with variables,
+// keys, activation, preconditions over facts.
+const char* const kTracker = R"yaml(component: tracker
+functionalities:
+  - name: track
+    inputs:
+      - {name: left, type: "image( ?a )"}
+      - {name: right, type: "image(?b)", key: "mi-cam.?b"}
+    outputs:
+      - {name: position, type: "position(?robot)"}
+      - {name: seen, type: "activity(?robot, kitchen)", key: "seen.?robot"}
+    preconditions: ["in-view(?robot, ?a)", "in-view(?robot,?b)", "?a != ?b"]
+    activation: tracking
+    cost: 2
+)yaml";
+
+TEST_CASE("typed ports, keys, activation and preconditions", "[unit][descriptor]") {
+  const auto d = Descriptor::fromYaml(kTracker, "tracker.yaml");
+  const auto& f = d.functionalities.at(0);
+  CHECK(f.inputs[0].type == "image(?a)");  // canonical form
+  CHECK(f.inputs[0].inputKey() == "mi-left.?a");
+  CHECK(f.inputs[1].inputKey() == "mi-cam.?b");
+  CHECK(f.outputs[0].outputKey() == "position.?robot");
+  CHECK(f.outputs[1].type == "activity(?robot,kitchen)");
+  CHECK(f.outputs[1].outputKey() == "seen.?robot");
+  CHECK(f.preconditions ==
+        std::vector<std::string>{"in-view(?robot,?a)", "in-view(?robot,?b)", "?a != ?b"});
+  CHECK(f.activation == "tracking");
+  CHECK(peis::formatPorts(f.inputs) == "left:image(?a) right:image(?b)@mi-cam.?b");
+  const auto again = Descriptor::fromYaml(d.toYaml(), "<round trip>");
+  CHECK(again == d);
+  // ?self is the PEIS's own name: no key suffix for it.
+  CHECK(Port{"position", "position(?self)", ""}.inputKey() == "mi-position");
+}
+
+TEST_CASE("terms parse to a canonical form or say why not", "[unit][descriptor]") {
+  CHECK(peis::Term::parse(" activity( ?p , kitchen ) ")->toString() == "activity(?p,kitchen)");
+  CHECK(peis::Term::parse("image/jpeg")->args.empty());
+  CHECK(peis::Term::parse("f(?x, a, ?x)")->variables() == std::vector<std::string>{"?x"});
+  CHECK_FALSE(peis::Term::parse("f(a, b)")->isGround() == false);
+  std::string why;
+  CHECK_FALSE(peis::Term::parse("f(a", &why));
+  CHECK_THAT(why, Contains("quote"));
+  CHECK_FALSE(peis::Term::parse("f()", &why));
+  CHECK_FALSE(peis::Term::parse("f(a.b)", &why));
+  CHECK_FALSE(peis::Term::parse("f(?)", &why));
+  CHECK_FALSE(peis::Term::parse("", &why));
+}
+
+TEST_CASE("bad typed descriptors are errors with file:line", "[unit][descriptor]") {
+  const std::string head = "component: a\nfunctionalities:\n  - name: f\n";
+  CHECK_THAT(failure(head + "    outputs: [{name: x, type: \"x(?a\"}]\n"),
+             StartsWith("camera.yaml:4:") && Contains("not a term"));
+  CHECK_THAT(failure(head + "    inputs: [{name: x, type: t, key: x-in}]\n"),
+             StartsWith("camera.yaml:4:") && Contains("must start with 'mi-'"));
+  CHECK_THAT(failure(head + "    outputs: [{name: x, type: t, key: \"a..b\"}]\n"),
+             StartsWith("camera.yaml:4:") && Contains("not a valid key"));
+  CHECK_THAT(failure(head + "    preconditions: [\"bad(\"]\n"),
+             StartsWith("camera.yaml:4:") && Contains("precondition"));
+  CHECK_THAT(
+      failure(head + "    outputs: [{name: x, type: t}]\n    preconditions: [\"?q != a\"]\n"),
+      Contains("?q") && Contains("appears in no type"));
+  CHECK_THAT(
+      failure(head +
+              "    outputs: [{name: x, type: \"t(?a)\"}]\n    preconditions: [\"?a != ?a\"]\n"),
+      Contains("can never hold"));
+  CHECK_THAT(
+      failure(head + "    outputs: [{name: x, type: t, key: k}, {name: y, type: u, key: k}]\n"),
+      Contains("two outputs to the key 'k'"));
+  CHECK_THAT(failure(head + "    activation: \"a b\"\n"),
+             StartsWith("camera.yaml:4:") && Contains("actuator"));
 }

@@ -52,7 +52,7 @@ int main(int argc, char** argv) {
       {"hello", body(LinkMessage{hello})},
       {"ping", body(LinkMessage{Ping{42}})},
       {"pong", body(LinkMessage{Pong{42}})},
-      {"routes", body(LinkMessage{Routes{{{7, 0, 70, "astrid"}, {8, 2, 80, ""}}}})},
+      {"routes", body(LinkMessage{Routes{{{7, 0, 0, 70, 3, "astrid"}, {8, 2, 1, 80, 0, ""}}}})},
       {"id-taken", body(LinkMessage{IdTaken{7, 70}})},
       {"subscribe-owner", body(RoutedMessage{env, Subscribe{1, 6000, 7, "robot.*.x"}})},
       {"subscribe-any", body(RoutedMessage{env, Subscribe{2, 6000, std::nullopt, "**"}})},

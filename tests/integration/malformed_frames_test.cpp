@@ -3,18 +3,17 @@
 // ecologies, a peer that vanishes mid-frame) is thrown at a live PEIS over
 // real TCP connections. Each bad frame is counted and dropped, each garbage
 // peer disconnected, and the PEIS keeps serving its subscriber throughout.
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
 #include <unistd.h>
 
 #include <catch2/catch.hpp>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "net/wire.h"
 #include "peis/peis.h"
+#include "raw_peer.h"
 #include "support/wait_for.h"
 
 namespace {
@@ -24,57 +23,13 @@ using peis::test::waitFor;
 
 std::string ecologyName() { return "fault-malformed-" + std::to_string(getpid()); }
 
-int connectTo(std::uint16_t port) {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_port = htons(port);
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  REQUIRE(connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0);
-  timeval timeout{10, 0};
-  setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-  return fd;
-}
+std::string frame(const peis::wire::LinkMessage& message) { return peis::test::frameOf(message); }
 
-void sendAll(int fd, const std::string& bytes) {
-  std::size_t sent = 0;
-  while (sent < bytes.size()) {
-    const auto n = send(fd, bytes.data() + sent, bytes.size() - sent, MSG_NOSIGNAL);
-    if (n <= 0) return;  // the PEIS may already have hung up on us
-    sent += static_cast<std::size_t>(n);
-  }
-}
-
-// True once the PEIS closed the connection (read returns 0 or an error
-// other than a timeout), draining whatever it sent before.
-bool closedByPeer(int fd) {
-  char buffer[4096];
-  while (true) {
-    const auto n = recv(fd, buffer, sizeof buffer, 0);
-    if (n == 0) return true;
-    if (n < 0) return errno != EAGAIN && errno != EWOULDBLOCK;
-  }
-}
-
-std::string frame(const peis::wire::LinkMessage& message) {
-  std::string out;
-  peis::wire::encode(message, out);
-  return out;
-}
-
-std::string frame(const peis::wire::RoutedMessage& message) {
-  return peis::wire::encodeFrame(message);
-}
+std::string frame(const peis::wire::RoutedMessage& message) { return peis::test::frameOf(message); }
 
 std::string hello(const std::string& ecology, peis::PeisId id,
                   std::uint16_t version = peis::wire::kVersion) {
-  peis::wire::Hello h;
-  h.version = version;
-  h.ecology = ecology;
-  h.id = id;
-  h.incarnation = 1ull << 62;  // "started later" than any real PEIS here
-  h.name = "attacker";
-  return frame(peis::wire::LinkMessage{h});
+  return peis::test::helloFrame(ecology, id, version);
 }
 
 // A well-framed message whose type byte is `type` and body `body`.
@@ -141,16 +96,15 @@ TEST_CASE("a live PEIS survives a corpus of malformed frames and keeps serving",
   };
   for (const auto& [name, bytes] : disconnecting) {
     INFO(name);
-    const int fd = connectTo(port);
-    sendAll(fd, bytes());
-    CHECK(closedByPeer(fd));
-    close(fd);
+    peis::test::RawPeer peer(port);
+    peer.send(bytes());
+    CHECK(peer.closedByPeer());
     CHECK(stillServing());
   }
 
   SECTION("after a valid handshake, bad frames are dropped, counted, then the peer is cut off") {
-    const int fd = connectTo(port);
-    sendAll(fd, hello(ecology, 7200));
+    peis::test::RawPeer peer(port);
+    peer.send(hello(ecology, 7200));
     // Wait until the owner linked us (it routes to 7200).
     REQUIRE(waitFor([&] {
       for (const auto& p : owner.peers()) {
@@ -171,17 +125,16 @@ TEST_CASE("a live PEIS survives a corpus of malformed frames and keeps serving",
         rawFrame(18, std::string(40, '\xff')),  // TupleUpdate with negative ids
         rawFrame(1, "again"),                   // a second, broken Hello
     };
-    for (const auto& f : bad) sendAll(fd, f);
-    CHECK(closedByPeer(fd));
-    close(fd);
+    for (const auto& f : bad) peer.send(f);
+    CHECK(peer.closedByPeer());
     const auto stats = owner.networkStats();
     CHECK(stats.malformedFrames >= stats0.malformedFrames + 7);
     CHECK(stillServing());
   }
 
   SECTION("a peer that vanishes in the middle of a frame") {
-    const int fd = connectTo(port);
-    sendAll(fd, hello(ecology, 7300));
+    auto peer = std::make_unique<peis::test::RawPeer>(port);
+    peer->send(hello(ecology, 7300));
     peis::wire::TupleUpdate update;
     update.ownerIncarnation = 1;
     update.tuple.owner = 7300;
@@ -189,8 +142,8 @@ TEST_CASE("a live PEIS survives a corpus of malformed frames and keeps serving",
     update.tuple.key = "half";
     update.tuple.data = std::string(100000, 'z');
     auto whole = frame(peis::wire::RoutedMessage{peis::wire::Envelope{7300, 7001, 5}, update});
-    sendAll(fd, whole.substr(0, whole.size() / 2));
-    close(fd);
+    peer->send(whole.substr(0, whole.size() / 2));
+    peer.reset();  // gone mid-frame
     CHECK(stillServing());
     CHECK_FALSE(owner.get(7300, "half"));
   }
@@ -221,21 +174,20 @@ TEST_CASE("a held frame, a route advert and another unknown source in one read",
     }
     return false;
   };
-  const int fd = connectTo(owner.port());
-  sendAll(fd, hello(ecology, 7100));
+  peis::test::RawPeer peer(owner.port());
+  peer.send(hello(ecology, 7100));
   REQUIRE(waitFor([&] { return hasPeer(7100); }));
   peis::wire::Routes routes;
-  routes.entries.push_back(peis::wire::RouteEntry{7300, 0, 5, "z"});
+  routes.entries.push_back(peis::wire::RouteEntry{7300, 1, 0, 5, 0, "z"});
   const std::string burst =
       frame(peis::wire::RoutedMessage{peis::wire::Envelope{7200, 7001, 5},  // held
                                       peis::wire::Unsubscribe{1}}) +
       frame(peis::wire::LinkMessage{routes}) +  // a recompute is pending
       frame(peis::wire::RoutedMessage{peis::wire::Envelope{7400, 7001, 5},  // runs it
                                       peis::wire::Unsubscribe{2}});
-  sendAll(fd, burst);
+  peer.send(burst);
   // The advert was applied, and the PEIS still serves.
   CHECK(waitFor([&] { return hasPeer(7300); }));
   owner.set("x", "1");
   CHECK(owner.get(7001, "x"));
-  close(fd);
 }

@@ -64,6 +64,8 @@ TEST_CASE("beacons round-trip and every malformed beacon is rejected", "[unit][o
   const Beacon beacon{"home", 6890, 1234567890123ull, 40123, true};
   const auto bytes = encodeBeacon(beacon);
   REQUIRE(decodeBeacon(bytes) == beacon);
+  const Beacon tool{"home", 6891, 5, 40124, false, true};  // flags bit 1: a tool PEIS
+  REQUIRE(decodeBeacon(encodeBeacon(tool)) == tool);
   CHECK(bytes.size() == 4 + 2 + 1 + 4 + 4 + 8 + 2 + 1);
   CHECK(bytes.substr(0, 4) == "PEIB");
 
@@ -80,7 +82,7 @@ TEST_CASE("beacons round-trip and every malformed beacon is rejected", "[unit][o
   CHECK_FALSE(corrupt(0, 'X'));               // magic
   CHECK_FALSE(corrupt(5, 1));                 // version 1 (the protocol is version 2)
   CHECK_FALSE(corrupt(11, '\x80'));           // id becomes negative
-  CHECK_FALSE(corrupt(bytes.size() - 1, 2));  // flags > 1
+  CHECK_FALSE(corrupt(bytes.size() - 1, 4));  // flags > 3
   auto noPort = beacon;
   noPort.port = 0;
   CHECK_FALSE(decodeBeacon(encodeBeacon(noPort)));

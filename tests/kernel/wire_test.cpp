@@ -126,9 +126,11 @@ std::vector<std::pair<std::string, std::string>> sampleFrames() {
   frames.emplace_back("Ping", frameOf(LinkMessage{Ping{99}}));
   frames.emplace_back("Pong", frameOf(LinkMessage{Pong{98}}));
   frames.emplace_back("Routes (empty)", frameOf(LinkMessage{Routes{}}));
-  frames.emplace_back("Routes",
-                      frameOf(LinkMessage{Routes{{{7, 0, 70, "astrid"}, {8, 2, 80, ""}}}}));
+  frames.emplace_back(
+      "Routes", frameOf(LinkMessage{Routes{{{7, 0, 0, 70, 3, "astrid"}, {8, 2, 1, 80, 0, ""}}}}));
   frames.emplace_back("IdTaken", frameOf(LinkMessage{IdTaken{7, 70}}));
+  frames.emplace_back("Leave", frameOf(LinkMessage{Leave{7, 70}}));
+  frames.emplace_back("SeqnoRequest", frameOf(LinkMessage{SeqnoRequest{7, 70, 3, 32}}));
   const auto env = sampleEnvelope();
   frames.emplace_back("Subscribe (owner)",
                       frameOf(RoutedMessage{env, Subscribe{5, 6000, PeisId{7}, "robot.*.x"}}));
@@ -172,11 +174,18 @@ TEST_CASE("wire: link messages round-trip", "[unit][wire]") {
   }
   SECTION("Routes") {
     checkLinkRoundTrip(Routes{});
-    checkLinkRoundTrip(Routes{{{1, 0, 10, "a"}, {kMaxPeisId, 32, ~0ull, ""}, {5, 255, 0, "bob"}}});
+    checkLinkRoundTrip(Routes{
+        {{1, 0, 0, 10, 0, "a"}, {kMaxPeisId, 32, 0xff, ~0ull, ~0u, ""}, {5, 255, 1, 0, 7, "bob"}}});
   }
   SECTION("IdTaken") {
     checkLinkRoundTrip(IdTaken{1, 0});
     checkLinkRoundTrip(IdTaken{kMaxPeisId, ~0ull});
+  }
+  SECTION("Leave and SeqnoRequest") {
+    checkLinkRoundTrip(Leave{1, 0});
+    checkLinkRoundTrip(Leave{kMaxPeisId, ~0ull});
+    checkLinkRoundTrip(SeqnoRequest{1, 0, 0, 0});
+    checkLinkRoundTrip(SeqnoRequest{kMaxPeisId, ~0ull, ~0u, 255});
   }
 }
 
@@ -277,8 +286,18 @@ TEST_CASE("wire: byte layout is big-endian and exact", "[unit][wire]") {
                                          "00 00"));                 // str16 auth ""
   }
   SECTION("Routes") {
-    CHECK(frameOf(LinkMessage{Routes{{{0x0a0b0c0d, 3, 0x0102030405060708ull, "ab"}}}}) ==
-          hex("00 00 00 13 04 00 01 0a 0b 0c 0d 03 01 02 03 04 05 06 07 08 02 61 62"));
+    CHECK(frameOf(LinkMessage{Routes{{{0x0a0b0c0d, 3, 1, 0x0102030405060708ull, 0xa1a2a3a4,
+                                       "ab"}}}}) == hex("00 00 00 18 04 00 01"
+                                                        "0a 0b 0c 0d 03 01"  // id, hops, flags
+                                                        "01 02 03 04 05 06 07 08"  // incarnation
+                                                        "a1 a2 a3 a4"              // seqno
+                                                        "02 61 62"));              // str8 "ab"
+  }
+  SECTION("Leave and SeqnoRequest") {
+    CHECK(frameOf(LinkMessage{Leave{0x01020304, 0x1122334455667788ull}}) ==
+          hex("00 00 00 0d 06 01 02 03 04 11 22 33 44 55 66 77 88"));
+    CHECK(frameOf(LinkMessage{SeqnoRequest{0x01020304, 0x1122334455667788ull, 0xa1a2a3a4, 9}}) ==
+          hex("00 00 00 12 07 01 02 03 04 11 22 33 44 55 66 77 88 a1 a2 a3 a4 09"));
   }
   SECTION("envelope and Unsubscribe") {
     CHECK(frameOf(RoutedMessage{Envelope{1, kMaxPeisId, 32}, Unsubscribe{0xa1a2a3a4a5a6a7a8ull}}) ==
@@ -415,7 +434,7 @@ TEST_CASE("wire: malformed frames are rejected with a reason", "[unit][wire]") {
   SECTION("empty frame") { CHECK(rejectBody(std::string_view{}) == "empty frame"); }
 
   SECTION("unknown message types") {
-    for (int type : {0, 6, 7, 15, 23, 24, 127, 255}) {
+    for (int type : {0, 8, 9, 15, 23, 24, 127, 255}) {
       INFO("type " << type);
       std::string body(1, static_cast<char>(type));
       CHECK(rejectBody(body).find("unknown message type") != std::string::npos);
@@ -517,7 +536,7 @@ TEST_CASE("wire: malformed frames are rejected with a reason", "[unit][wire]") {
             std::string::npos);
       CHECK(rejectFrame(frameOf(RoutedMessage{env, TupleDeleted{1, bad, "a", 1}})).find("owner") !=
             std::string::npos);
-      CHECK(rejectFrame(frameOf(LinkMessage{Routes{{{4, 1, 1, ""}, {bad, 1, 1, ""}}}}))
+      CHECK(rejectFrame(frameOf(LinkMessage{Routes{{{4, 1, 0, 1, 0, ""}, {bad, 1, 0, 1, 0, ""}}}}))
                 .find("route id") != std::string::npos);
       auto h = sampleHello();
       h.id = bad;
@@ -576,8 +595,8 @@ TEST_CASE("wire: malformed frames are rejected with a reason", "[unit][wire]") {
       h = sampleHello();
       h.name = name;
       CHECK(rejectFrame(frameOf(LinkMessage{h})).find("bad PEIS name") != std::string::npos);
-      CHECK(rejectFrame(frameOf(LinkMessage{Routes{{{4, 1, 1, name}}}})).find("bad PEIS name") !=
-            std::string::npos);
+      CHECK(rejectFrame(frameOf(LinkMessage{Routes{{{4, 1, 0, 1, 0, name}}}}))
+                .find("bad PEIS name") != std::string::npos);
     }
   }
 

@@ -12,9 +12,9 @@ namespace {
 constexpr std::string_view kBegin = "<!-- layering:begin -->";
 constexpr std::string_view kEnd = "<!-- layering:end -->";
 
-const std::set<std::string> kCategories = {"c",        "c++",    "system",  "boost",
-                                           "yaml-cpp", "sqlite", "catch2",  "eigen",
-                                           "opencv",   "simavr", "avr-libc"};
+const std::set<std::string> kCategories = {"c",        "c++",        "system", "boost",  "yaml-cpp",
+                                           "sqlite",   "catch2",     "eigen",  "opencv", "simavr",
+                                           "avr-libc", "cyclonedds", "zeromq"};
 
 // The C standard library's headers (C99 and C11).
 const std::set<std::string> kCHeaders = {
@@ -179,6 +179,8 @@ std::string categoryOf(const Include& include) {
   if (startsWith(name, "Eigen/") || startsWith(name, "eigen3/")) return "eigen";
   if (startsWith(name, "opencv2/")) return "opencv";
   if (startsWith(name, "avr/")) return "avr-libc";
+  if (startsWith(name, "dds/")) return "cyclonedds";  // benchmark peers only
+  if (name == "zmq.h") return "zeromq";
   if (startsWith(name, "sim_") || startsWith(name, "avr_") || startsWith(name, "simavr/"))
     return "simavr";
   return "system";  // POSIX and the rest of the operating system

@@ -24,6 +24,7 @@ const std::string kTable = R"(Some prose.
 | `tests/kernel/` | `kernel/`, `tests/support/` | C++, Catch2 |
 | `component/include/` | `kernel/include/` | C++ |
 | `tiny/include/` | — | C |
+| `bench/peers/` | — | C++, CycloneDDS, ZeroMQ |
 <!-- layering:end -->
 )";
 
@@ -53,7 +54,7 @@ TEST_CASE("the base tree keeps the table", "[unit]") {
 
 TEST_CASE("the table's rows are read with their folders, ours and categories", "[unit]") {
   const auto rules = parseRules(kTable);
-  REQUIRE(rules.size() == 9);
+  REQUIRE(rules.size() == 10);
   CHECK(rules[0].folders == std::vector<std::string>{"kernel/include/"});
   CHECK(rules[0].ours.empty());
   CHECK(rules[0].outside == std::set<std::string>{"c", "c++"});
@@ -102,6 +103,8 @@ TEST_CASE("outside headers fall into their library's category", "[unit]") {
   CHECK(categoryOf({"catch2/catch.hpp", true}) == "catch2");
   CHECK(categoryOf({"avr/io.h", true}) == "avr-libc");
   CHECK(categoryOf({"sim_avr.h", true}) == "simavr");
+  CHECK(categoryOf({"dds/dds.h", true}) == "cyclonedds");
+  CHECK(categoryOf({"zmq.h", true}) == "zeromq");
 }
 
 TEST_CASE("a folder may use its own files, the folders of its row and its categories", "[unit]") {
@@ -157,6 +160,13 @@ TEST_CASE("outside libraries are checked too", "[unit]") {
   CHECK(checkWith("tiny/src/tiny_kernel.c", "#include <string.h>\n").empty());
   CHECK(checkWith("tiny/src/tiny_kernel.c", "#include <pthread.h>\n").size() == 1);
   CHECK(checkWith("tiny/src/tiny_kernel.c", "#include <vector>\n").size() == 1);
+}
+
+TEST_CASE("only the benchmark peers may use Cyclone DDS and ZeroMQ", "[unit]") {
+  CHECK(checkWith("bench/peers/dds_peer.cpp", "#include <dds/dds.h>\n").empty());
+  CHECK(checkWith("bench/peers/zmq_peer.cpp", "#include <zmq.h>\n").empty());
+  CHECK(checkWith("kernel/src/link.cpp", "#include <zmq.h>\n").size() == 1);
+  CHECK(checkWith("components/sim/world.cpp", "#include <dds/dds.h>\n").size() == 1);
 }
 
 TEST_CASE("a file under no row is reported: a new folder needs a row", "[unit]") {

@@ -28,14 +28,16 @@ camera::Calibration overhead() {
 
 }  // namespace
 
-TEST_CASE("a camera projects what it looks at to its principal point, and rays invert projection", "[unit]") {
+TEST_CASE("a camera projects what it looks at to its principal point, and rays invert projection",
+          "[unit]") {
   const auto c = overhead();
   const auto centre = c.project({2, 3, 0});
   REQUIRE(centre);
   CHECK(centre->x() == Approx(c.cx));
   CHECK(centre->y() == Approx(c.cy));
   CHECK_FALSE(c.project({0, 1, 4}));  // behind
-  for (const auto& [u, v] : {std::pair{10.0, 20.0}, std::pair{600.0, 400.0}, std::pair{320.0, 5.0}}) {
+  for (const auto& [u, v] :
+       {std::pair{10.0, 20.0}, std::pair{600.0, 400.0}, std::pair{320.0, 5.0}}) {
     const auto floor = c.intersectHeight(u, v, 0.4);
     REQUIRE(floor);
     CHECK(floor->z() == Approx(0.4));
@@ -76,21 +78,26 @@ TEST_CASE("broken camera files name file:line and the problem", "[unit]") {
              StartsWith("cam.yaml:5: unknown key 'zoom' in a camera"));
   CHECK_THAT(errorOf("name: c\nposition: [0, 0, 2]\nlook_at: [0, 0, 0]\nfx: 300\n"),
              StartsWith("cam.yaml:3: camera look_at: up is along the viewing direction"));
-  CHECK_THAT(errorOf("name: c\nposition: [0, 0, 2]\nrotation: [1, 0, 0, 0, 1, 0, 0, 0, 2]\nfx: 300\n"),
-             StartsWith("cam.yaml:3: camera rotation must be a rotation matrix"));
+  CHECK_THAT(
+      errorOf("name: c\nposition: [0, 0, 2]\nrotation: [1, 0, 0, 0, 1, 0, 0, 0, 2]\nfx: 300\n"),
+      StartsWith("cam.yaml:3: camera rotation must be a rotation matrix"));
   CHECK_THAT(errorOf("name: c\nposition: [0, 0, 2]\nlook_at: [1, 0, 0]\nfx: -5\n"),
              StartsWith("cam.yaml:4: camera fx must be in 1..1e+06, not -5"));
   CHECK_THAT(errorOf("name: c\nposition: [0, 0, 2]\nlook_at: [1, 0, 0]\n"),
              StartsWith("cam.yaml:1: a camera (or fov_deg) needs 'fx'"));
-  CHECK_THAT(errorOf("[1, 2]\n"), StartsWith("cam.yaml:1: a camera file must be one camera mapping"));
-  const auto spec = camera::cameraFromYaml(components::YamlReader("x"),
-                                           YAML::Load("{name: c, position: [0, 0, 2], look_at: [1, 0, 0], fov_deg: 90, width: 320, height: 240}"));
+  CHECK_THAT(errorOf("[1, 2]\n"),
+             StartsWith("cam.yaml:1: a camera file must be one camera mapping"));
+  const auto spec = camera::cameraFromYaml(
+      components::YamlReader("x"), YAML::Load("{name: c, position: [0, 0, 2], look_at: [1, 0, 0], "
+                                              "fov_deg: 90, width: 320, height: 240}"));
   CHECK(spec.calibration.fx == Approx(160.0));
   CHECK(spec.calibration.cx == Approx(159.5));
-  CHECK_THROWS_WITH(camera::cameraFromFile(dir.file("none.yaml")), Contains("cannot open the camera file"));
+  CHECK_THROWS_WITH(camera::cameraFromFile(dir.file("none.yaml")),
+                    Contains("cannot open the camera file"));
 }
 
-TEST_CASE("images round-trip as PNG and raw tuples; anything else is refused with a reason", "[unit]") {
+TEST_CASE("images round-trip as PNG and raw tuples and anything else is refused with a reason",
+          "[unit]") {
   cv::Mat image(48, 64, CV_8UC3);
   cv::randu(image, 0, 255);
   for (const auto format : {camera::ImageFormat::Png, camera::ImageFormat::Raw}) {
@@ -133,7 +140,10 @@ TEST_CASE("images round-trip as PNG and raw tuples; anything else is refused wit
   CHECK(bgr.at<cv::Vec3b>(1, 1) == cv::Vec3b(77, 77, 77));
 }
 
-TEST_CASE("the rendered view shows a robot's hat where the calibration projects it, lit by the light model", "[unit]") {
+TEST_CASE(
+    "the rendered view shows a robot's hat where the calibration projects it, lit by the light "
+    "model",
+    "[unit]") {
   const auto world = sim::loadWorldFile(test::peisHomePath());
   const sim::LightModel light(world);
   sim::Simulation simulation(world, 1);

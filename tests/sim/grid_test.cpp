@@ -13,14 +13,14 @@ TEST_CASE("the grid covers the map at its resolution and marks walls and furnitu
   CHECK(grid.columns() == 80);
   CHECK(grid.rows() == 60);
   // The 1 m box from (2.5, 1.0) to (3.5, 2.0): its cells and no others inside the walls.
-  CHECK(grid.occupied(60, 30));              // (3.025, 1.525): inside the box
-  CHECK(grid.occupied(50, 20));              // (2.525, 1.025): inside near the corner
-  CHECK_FALSE(grid.occupied(49, 20));        // (2.475, ...): the cell only touches the edge
-  CHECK_FALSE(grid.occupied(20, 30));        // the middle of the free floor
+  CHECK(grid.occupied(60, 30));        // (3.025, 1.525): inside the box
+  CHECK(grid.occupied(50, 20));        // (2.525, 1.025): inside near the corner
+  CHECK_FALSE(grid.occupied(49, 20));  // (2.475, ...): the cell only touches the edge
+  CHECK_FALSE(grid.occupied(20, 30));  // the middle of the free floor
   // Walls of 10 cm thickness centred on the border cover the first cell.
   CHECK(grid.occupied(0, 30));
   CHECK_FALSE(grid.occupied(1, 30));
-  CHECK(grid.occupied(-1, 0));               // outside the grid counts as occupied
+  CHECK(grid.occupied(-1, 0));  // outside the grid counts as occupied
   // The box covers exactly 20 x 20 cells.
   std::size_t boxCells = 0;
   for (int r = 10; r < 50; ++r)

@@ -8,6 +8,7 @@
 
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <fstream>
 #include <map>
 #include <mutex>
 #include <sstream>
@@ -26,7 +27,9 @@ using peis::test::waitFor;
 
 namespace {
 
-std::string program(const std::string& relative) { return std::string(PEIS_BUILD_DIR) + "/" + relative; }
+std::string program(const std::string& relative) {
+  return std::string(PEIS_BUILD_DIR) + "/" + relative;
+}
 
 struct Home {
   std::string ecology = peis::test::uniqueEcology("home");
@@ -37,7 +40,8 @@ struct Home {
   Process& start(std::vector<std::string> argv) {
     argv.push_back("--peis-ecology");
     argv.push_back(ecology);
-    processes.push_back(std::make_unique<Process>(argv, Process::Environment{{"PEIS_LOG", "warn"}}));
+    processes.push_back(
+        std::make_unique<Process>(argv, Process::Environment{{"PEIS_LOG", "warn"}}));
     return *processes.back();
   }
   Process& world(std::vector<std::string> extra = {}) {
@@ -50,8 +54,8 @@ struct Home {
     return start({program("components/camera/peis-camera"), "--camera", name, "--rate", "5"});
   }
   Process& tracker(int cameras = 2) {
-    return start({program("components/tracking/peis-tracker"), "--targets", peis::test::peisHomePath(),
-                  "--cameras", std::to_string(cameras)});
+    return start({program("components/tracking/peis-tracker"), "--targets",
+                  peis::test::peisHomePath(), "--cameras", std::to_string(cameras)});
   }
   peis::Kernel& kernel() {
     if (!referee) {
@@ -105,8 +109,10 @@ std::vector<double> numbers(const std::string& text, std::size_t n) {
 
 }  // namespace
 
-TEST_CASE("a robot driver PEIS moves its robot from VelCommand and reports odometry, sonar, battery, bumper",
-          "[integration]") {
+TEST_CASE(
+    "a robot driver PEIS moves its robot from VelCommand and reports odometry, sonar, battery, "
+    "bumper",
+    "[integration]") {
   Home home;
   home.world({"--speed", "2"});
   auto& k = home.kernel();
@@ -143,7 +149,8 @@ TEST_CASE("a robot driver PEIS moves its robot from VelCommand and reports odome
                          Catch::Matchers::Predicate<peis::Error>(
                              [](const peis::Error& e) {
                                return e.code() == peis::ErrorCode::Refused &&
-                                      std::string(e.what()).find("VelCommand takes 'V W'") != std::string::npos;
+                                      std::string(e.what()).find("VelCommand takes 'V W'") !=
+                                          std::string::npos;
                              },
                              "refused, saying the format"));
   CHECK_THROWS_AS(k.set(base, "Odometry", "0 0 0 0 0"), peis::Error);
@@ -181,8 +188,51 @@ TEST_CASE("a robot driver PEIS moves its robot from VelCommand and reports odome
       20s));
 }
 
-TEST_CASE("world + two cameras + tracker as processes: the tracker's position is within a few cm of the truth",
-          "[integration]") {
+TEST_CASE("a run with --duration ends by itself and leaves its top-down picture", "[integration]") {
+  Home home;
+  auto& world = home.world({"--duration", "1", "--speed", "5"});
+  const auto status = world.wait(60s);
+  INFO(world.describe());
+  REQUIRE(status.has_value());
+  CHECK(*status == 0);
+  CHECK(world.out().find("duration reached") != std::string::npos);
+  std::ifstream picture(home.dir.file("home.png"), std::ios::binary);
+  std::string magic(8, '\0');
+  picture.read(magic.data(), 8);
+  CHECK(magic == "\x89PNG\r\n\x1a\n");
+}
+
+TEST_CASE("a physics input follows another PEIS's tuple with --bind", "[integration]") {
+  Home home;
+  auto& k = home.kernel();  // "referee", the device that reports its lamp level
+  k.set("LampLevel", "0");
+  home.world({"--bind", "physics.lamp.lamp.level=referee.LampLevel"});
+  const auto world = home.idOf("world");
+  k.subscribe(peis::Pattern::exact(world, "physics.lamp.lamp.level"));
+  k.subscribe(peis::Pattern::exact(world, "physics.light.sofa"));
+  REQUIRE(waitFor([&] { return home.value(world, "physics.light.sofa").has_value(); }, 30s));
+  const double dark = numbers(home.value(world, "physics.light.sofa")->data, 1)[0];
+  k.set("LampLevel", "80");
+  const bool followed = waitFor(
+      [&] {
+        const auto level = home.value(world, "physics.lamp.lamp.level");
+        return level && level->data == "80.0";
+      },
+      30s);
+  INFO(home.describe());
+  REQUIRE(followed);
+  CHECK(waitFor(
+      [&] { return numbers(home.value(world, "physics.light.sofa")->data, 1)[0] > dark + 50; }));
+  k.set("LampLevel", "bright");  // not a number: ignored, said on stderr
+  CHECK(waitFor(
+      [&] { return home.processes[0]->err().find("ignored 'bright'") != std::string::npos; }));
+  CHECK(home.value(world, "physics.lamp.lamp.level")->data == "80.0");
+}
+
+TEST_CASE(
+    "world + two cameras + tracker as processes: the tracker's position is within a few cm of the "
+    "truth",
+    "[integration]") {
   Home home;
   home.world();
   home.camera("living-1");
@@ -232,22 +282,30 @@ TEST_CASE("world + two cameras + tracker as processes: the tracker's position is
   INFO(home.describe());
   REQUIRE(running);
 
-  // Pippi drives a slow arc in the living room; the fixes follow it.
+  // Pippi drives a slow arc in the living room; the fixes follow it. Fixes
+  // from one camera come too (when the other image is late); both kinds are
+  // checked against the truth, the two-camera ones against the target.
+  const auto twoCameraFixes = [&] {
+    return std::count(cameraCounts.begin(), cameraCounts.end(), 2);
+  };
   const bool enough = waitFor(
       [&] {
         k.set(base, "VelCommand", "0.15 0.2");
         std::lock_guard lock(mu);
-        return errors.size() >= 15;
+        return twoCameraFixes() >= 10;
       },
-      90s);
-  REQUIRE(enough);
+      120s);
   std::lock_guard lock(mu);
-  std::vector<double> sorted = errors;
-  std::sort(sorted.begin(), sorted.end());
-  INFO("errors (m): median " << sorted[sorted.size() / 2] << ", max " << sorted.back());
-  CHECK(sorted[sorted.size() / 2] < 0.03);
-  CHECK(sorted.back() < 0.08);
-  CHECK(std::count(cameraCounts.begin(), cameraCounts.end(), 2) >= 10);
+  INFO(errors.size() << " fixes, " << twoCameraFixes() << " from two cameras");
+  REQUIRE(enough);
+  std::vector<double> two;
+  for (std::size_t i = 0; i < errors.size(); ++i)
+    if (cameraCounts[i] == 2) two.push_back(errors[i]);
+  std::sort(two.begin(), two.end());
+  INFO("two-camera errors (m): median " << two[two.size() / 2] << ", max " << two.back());
+  CHECK(two[two.size() / 2] < 0.03);
+  CHECK(two.back() < 0.08);
+  CHECK(*std::max_element(errors.begin(), errors.end()) < 0.10);
 }
 
 TEST_CASE("the tracker copes with a camera with no image and with tuples that are not images",
@@ -281,7 +339,8 @@ TEST_CASE("the tracker copes with a camera with no image and with tuples that ar
   }));
 
   // Now camera2 delivers garbage: PNG that is not PNG, raw of the wrong length.
-  k.set("fake.calibration", "name: fake\nposition: [0.3, 0.3, 2.5]\nlook_at: [2.6, 3.2, 0]\nfx: 380\n",
+  k.set("fake.calibration",
+        "name: fake\nposition: [0.3, 0.3, 2.5]\nlook_at: [2.6, 3.2, 0]\nfx: 380\n",
         peis::WriteOptions{"application/yaml"});
   k.setMeta(tracker, "mi-camera2", k.id(), "fake.image");
   peis::WriteOptions png;
@@ -305,7 +364,8 @@ TEST_CASE("the tracker copes with a camera with no image and with tuples that ar
   for (auto& p : home.processes) CHECK(p->running());
 }
 
-TEST_CASE("broken world and camera files are errors naming file:line; bad options exit 2", "[fault]") {
+TEST_CASE("broken world and camera files are errors naming file:line and bad options exit 2",
+          "[fault]") {
   peis::test::TempDir dir("peis_home_files");
   const auto expect = [](std::vector<std::string> argv, int status, const std::string& text) {
     Process p(argv, {{"PEIS_DISCOVERY_SCOPE", "off"}});
@@ -315,7 +375,8 @@ TEST_CASE("broken world and camera files are errors naming file:line; bad option
     CHECK(*code == status);
     CHECK(p.err().find(text) != std::string::npos);
   };
-  const auto world = dir.write("world.yaml", peis::test::boxWorld("  - {name: r1, pose: [9, 1, 0]}\n"));
+  const auto world =
+      dir.write("world.yaml", peis::test::boxWorld("  - {name: r1, pose: [9, 1, 0]}\n"));
   expect({program("components/sim/peis-sim-world"), "--world", world}, 1,
          world + ":13: robot r1 pose (9, 1) is outside the map");
   expect({program("components/sim/peis-sim-world"), "--world", dir.file("none.yaml")}, 1,
@@ -323,11 +384,15 @@ TEST_CASE("broken world and camera files are errors naming file:line; bad option
   expect({program("components/sim/peis-sim-world"), "--speed", "0"}, 2, "--speed: takes 0.1..100");
   expect({program("components/sim/peis-sim-world"), "--bind", "physics.sun=7.X"}, 1,
          "--bind physics.sun: not a physics input");
-  const auto camera = dir.write("camera.yaml", "name: c\nposition: [0, 0, 2.5]\nlook_at: [1, 1, 0]\nfx: [300\n");
-  expect({program("components/camera/peis-camera"), "--calibration", camera}, 1, camera + ":5: not valid YAML");
+  const auto camera =
+      dir.write("camera.yaml", "name: c\nposition: [0, 0, 2.5]\nlook_at: [1, 1, 0]\nfx: [300\n");
+  expect({program("components/camera/peis-camera"), "--calibration", camera}, 1,
+         camera + ":5: not valid YAML");
   expect({program("components/camera/peis-camera")}, 2, "give --camera NAME or --calibration FILE");
-  expect({program("components/camera/peis-camera"), "--camera", "x", "--format", "jpeg"}, 2, "takes raw or png");
-  const auto targets = dir.write("targets.yaml", "targets:\n  - {name: a, colour: [1, 2, 3], height: 1}\n");
+  expect({program("components/camera/peis-camera"), "--camera", "x", "--format", "jpeg"}, 2,
+         "takes raw or png");
+  const auto targets =
+      dir.write("targets.yaml", "targets:\n  - {name: a, colour: [1, 2, 3], height: 1}\n");
   expect({program("components/tracking/peis-tracker"), "--targets", targets}, 1,
          targets + ":2: a hat colour must be saturated");
   expect({program("components/tracking/peis-tracker")}, 2, "--targets is required");

@@ -1,9 +1,9 @@
 // Unit tests of differential-drive kinematics and odometry noise
 // (sim/world/kinematics.h).
+#include "sim/world/kinematics.h"
+
 #include <catch2/catch.hpp>
 #include <cmath>
-
-#include "sim/world/kinematics.h"
 
 using namespace peis::sim;
 
@@ -27,7 +27,8 @@ TEST_CASE("integrate drives straight lines and exact arcs", "[unit]") {
   CHECK(turned.theta == Approx(1.0));
 }
 
-TEST_CASE("commands are clamped and velocities follow them within the acceleration limits", "[unit]") {
+TEST_CASE("commands are clamped and velocities follow them within the acceleration limits",
+          "[unit]") {
   const DriveLimits limits{0.5, 1.0, 1.0, 2.0};
   CHECK(clampCommand({2, -3}, limits) == Velocity{0.5, -1.0});
   Velocity v{};

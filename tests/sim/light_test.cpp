@@ -13,7 +13,8 @@ using peis::sim::Vec2;
 
 TEST_CASE("a lamp lights a point by I cos(theta) / d^2 at its level", "[unit]") {
   const auto world = peis::sim::parseWorld(
-      peis::test::boxWorld("", "lamps:\n  - {name: lamp, position: [1, 1.5], height: 2, max_cd: 100}\n"),
+      peis::test::boxWorld(
+          "", "lamps:\n  - {name: lamp, position: [1, 1.5], height: 2, max_cd: 100}\n"),
       "lamp.yaml");
   const LightModel light(world);
   LightState state = peis::sim::initialLightState(world);
@@ -27,12 +28,14 @@ TEST_CASE("a lamp lights a point by I cos(theta) / d^2 at its level", "[unit]") 
   CHECK(bounced < 0.5 * 100.0 / 4);
   CHECK(light.bouncedLampTerm(0, {3.9, 0.2}) == Approx(bounced));
   state.lampLevel[0] = 100;
-  CHECK(light.illuminance(state, {2, 1.5}, 0) == Approx(100.0 * (2 / std::sqrt(5.0)) / 5 + bounced));
+  CHECK(light.illuminance(state, {2, 1.5}, 0) ==
+        Approx(100.0 * (2 / std::sqrt(5.0)) / 5 + bounced));
   state.lampLevel[0] = 50;
-  CHECK(light.illuminance(state, {2, 1.5}, 0) == Approx(0.5 * (100.0 * (2 / std::sqrt(5.0)) / 5 + bounced)));
+  CHECK(light.illuminance(state, {2, 1.5}, 0) ==
+        Approx(0.5 * (100.0 * (2 / std::sqrt(5.0)) / 5 + bounced)));
 }
 
-TEST_CASE("the blind attenuates the daylight on the plant; the lamp lights the sofa", "[unit]") {
+TEST_CASE("the blind attenuates the daylight on the plant and the lamp lights the sofa", "[unit]") {
   const auto world = peis::sim::loadWorldFile(peis::test::peisHomePath());
   const LightModel light(world);
   LightState state = peis::sim::initialLightState(world);
@@ -78,7 +81,8 @@ TEST_CASE("the floor maps agree with the exact model away from the windows", "[u
   const LightModel light(world);
   LightState state = peis::sim::initialLightState(world);
   state.lampLevel[0] = 70;
-  for (const Vec2 p : {Vec2{2.0, 2.0}, Vec2{3.3, 4.1}, Vec2{1.2, 1.7}, Vec2{6.5, 4.0}, Vec2{7.0, 1.0}}) {
+  for (const Vec2 p :
+       {Vec2{2.0, 2.0}, Vec2{3.3, 4.1}, Vec2{1.2, 1.7}, Vec2{6.5, 4.0}, Vec2{7.0, 1.0}}) {
     const double exact = light.illuminance(state, p, 0);
     const double mapped = light.floorIlluminance(state, p);
     CHECK(mapped == Approx(exact).epsilon(0.05));

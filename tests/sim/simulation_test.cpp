@@ -2,11 +2,12 @@
 // at walls with their bumper pressed, odometry without noise is the truth,
 // a command times out, sonars measure distances, light parcels are pushed
 // and heavy ones block, talk wakes people within hearing.
+#include "sim/world/simulation.h"
+
 #include <catch2/catch.hpp>
 #include <cmath>
 
 #include "sim/world/scene.h"
-#include "sim/world/simulation.h"
 #include "test_worlds.h"
 
 using namespace peis::sim;
@@ -48,14 +49,17 @@ TEST_CASE("a robot driving into furniture stops at it with its bumper pressed", 
   CHECK(sim.robot(0).pose.x < 2.2);
 }
 
-TEST_CASE("odometry without noise is the ground truth; with noise it drifts", "[unit]") {
+TEST_CASE("odometry without noise is the ground truth and with noise it drifts", "[unit]") {
   Simulation exact(boxWorldWith(kExactRobot), 1);
   drive(exact, {0.3, 0.4}, 5);
   CHECK(exact.robot(0).odometry.x == Approx(exact.robot(0).pose.x).margin(1e-9));
   CHECK(exact.robot(0).odometry.y == Approx(exact.robot(0).pose.y).margin(1e-9));
   CHECK(exact.robot(0).odometry.theta == Approx(exact.robot(0).pose.theta).margin(1e-9));
 
-  Simulation drifting(boxWorldWith("  - {name: r1, pose: [1, 1.5, 0], odometry_noise: {trans: 0.1, rot: 0.1, drift: 10}}\n"), 3);
+  Simulation drifting(
+      boxWorldWith(
+          "  - {name: r1, pose: [1, 1.5, 0], odometry_noise: {trans: 0.1, rot: 0.1, drift: 10}}\n"),
+      3);
   drive(drifting, {0.3, 0.4}, 5);
   const auto& r = drifting.robot(0);
   const double error = std::hypot(r.odometry.x - r.pose.x, r.odometry.y - r.pose.y);
@@ -64,7 +68,10 @@ TEST_CASE("odometry without noise is the ground truth; with noise it drifts", "[
 }
 
 TEST_CASE("a command holds for cmd_timeout, then the robot stops", "[unit]") {
-  Simulation sim(boxWorldWith("  - {name: r1, pose: [0.5, 1.5, 0], max_speed: 0.5, max_accel: 100, cmd_timeout: 1}\n"), 1);
+  Simulation sim(
+      boxWorldWith(
+          "  - {name: r1, pose: [0.5, 1.5, 0], max_speed: 0.5, max_accel: 100, cmd_timeout: 1}\n"),
+      1);
   sim.command(0, {0.5, 0});
   for (int i = 0; i < 300; ++i) sim.step(0.01);
   CHECK(sim.robot(0).velocity.v == 0);
@@ -104,7 +111,9 @@ TEST_CASE("a robot pushes a parcel it may push and is blocked by a heavier one",
 }
 
 TEST_CASE("a robot can never leave the map, even where no wall is", "[unit]") {
-  auto world = parseWorld("name: open\nsize: [2, 2]\nrobots:\n  - {name: r1, pose: [1, 1, 0], radius: 0.2}\n", "open.yaml");
+  auto world = parseWorld(
+      "name: open\nsize: [2, 2]\nrobots:\n  - {name: r1, pose: [1, 1, 0], radius: 0.2}\n",
+      "open.yaml");
   Simulation sim(std::move(world), 1);
   drive(sim, {0.5, 0}, 5);
   CHECK(sim.robot(0).pose.x <= 1.8 + 1e-9);
@@ -136,9 +145,10 @@ TEST_CASE("talk wakes the people within hearing", "[unit]") {
 }
 
 TEST_CASE("the physics scene round-trips through its text", "[unit]") {
-  Simulation sim(parseWorld(peis::test::boxWorld(kExactRobot,
-                                                 "people:\n  - {name: p, position: [3, 2.8], state: asleep}\n"
-                                                 "lamps:\n  - {name: lamp, position: [0.5, 0.5], level: 30}\n"),
+  Simulation sim(parseWorld(peis::test::boxWorld(
+                                kExactRobot,
+                                "people:\n  - {name: p, position: [3, 2.8], state: asleep}\n"
+                                "lamps:\n  - {name: lamp, position: [0.5, 0.5], level: 30}\n"),
                             "box.yaml"),
                  1);
   drive(sim, {0.2, 0.1}, 1);
@@ -153,6 +163,7 @@ TEST_CASE("the physics scene round-trips through its text", "[unit]") {
   CHECK(back.people == std::vector<std::pair<std::string, std::string>>{{"p", "asleep"}});
   // Unknown kinds are skipped; broken known lines are errors naming the line.
   CHECK(parseScene("time 1\nweather sunny\n").time == 1);
-  CHECK_THROWS_WITH(parseScene("time 1\nrobot r1 1 2\n"), Catch::Matchers::Contains("scene line 2 is malformed"));
+  CHECK_THROWS_WITH(parseScene("time 1\nrobot r1 1 2\n"),
+                    Catch::Matchers::Contains("scene line 2 is malformed"));
   CHECK_THROWS_AS(parseScene("robot r1 nan 1 2\n"), std::invalid_argument);
 }

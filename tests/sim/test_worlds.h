@@ -6,7 +6,9 @@
 
 namespace peis::test {
 
-inline std::string peisHomePath() { return std::string(PEIS_SOURCE_DIR) + "/components/sim/homes/peis-home.yaml"; }
+inline std::string peisHomePath() {
+  return std::string(PEIS_SOURCE_DIR) + "/components/sim/homes/peis-home.yaml";
+}
 
 // A 4 m x 3 m room with walls around it, a 1 m box at (2, 1.5)..., one robot.
 // `extra` is appended (more top-level keys).
@@ -22,9 +24,7 @@ inline std::string boxWorld(const std::string& robots = "", const std::string& e
          "  - {points: [[0, 0], [4, 0], [4, 3], [0, 3], [0, 0]], thickness: 0.1}\n"
          "furniture:\n"
          "  - {name: box, box: {centre: [3.0, 1.5], size: [1.0, 1.0]}, height: 0.5}\n" +
-         (robots.empty() ? std::string()
-                         : "robots:\n" + robots) +
-         extra;
+         (robots.empty() ? std::string() : "robots:\n" + robots) + extra;
 }
 
 }  // namespace peis::test

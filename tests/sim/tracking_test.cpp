@@ -1,8 +1,8 @@
 // Unit tests of camera tracking (components/tracking): targets, hat
 // detection on rendered images with known ground truth, triangulation with
 // two cameras, the ground-plane fix with one, nothing with none.
-#include <catch2/catch.hpp>
 #include <Eigen/Dense>
+#include <catch2/catch.hpp>
 #include <cmath>
 
 #include "camera/render_view.h"
@@ -86,14 +86,17 @@ TEST_CASE("targets come from a world file's robots or from a targets file", "[un
   CHECK_THAT(errorOf("targets: [\n"), StartsWith("t.yaml:2: not valid YAML"));
 }
 
-TEST_CASE("the detector finds a hat at the projection of its centre in a rendered image", "[unit]") {
+TEST_CASE("the detector finds a hat at the projection of its centre in a rendered image",
+          "[unit]") {
   const Home home;
   const sim::Pose2 truth{2.0, 2.5, 0.3};
   const auto scene = home.sceneWith("Pippi", truth);
   const auto* spec = home.world.camera("living-1");
   tracking::HatDetector detector(home.targets);
-  const auto detections = detector.detect(camera::renderView(home.world, home.light, scene, *spec, 3));
-  const auto pixel = spec->calibration.project({truth.x, truth.y, home.targets[home.targetIndex("Pippi")].height});
+  const auto detections =
+      detector.detect(camera::renderView(home.world, home.light, scene, *spec, 3));
+  const auto pixel =
+      spec->calibration.project({truth.x, truth.y, home.targets[home.targetIndex("Pippi")].height});
   REQUIRE(pixel);
   bool seen = false;
   for (const auto& d : detections)
@@ -112,7 +115,8 @@ TEST_CASE("the detector finds a hat at the projection of its centre in a rendere
 TEST_CASE("two cameras triangulate a robot within 2 cm of the truth", "[unit]") {
   const Home home;
   const double height = home.targets[home.targetIndex("Pippi")].height;
-  for (const sim::Pose2 truth : {sim::Pose2{2.0, 2.5, 0}, sim::Pose2{1.2, 1.8, 1}, sim::Pose2{3.4, 3.6, 2}}) {
+  for (const sim::Pose2 truth :
+       {sim::Pose2{2.0, 2.5, 0}, sim::Pose2{1.2, 1.8, 1}, sim::Pose2{3.4, 3.6, 2}}) {
     const auto scene = home.sceneWith("Pippi", truth);
     const auto seen = home.sightings(scene, "Pippi", {"living-1", "living-2"});
     REQUIRE(seen.size() == 2);
@@ -126,7 +130,8 @@ TEST_CASE("two cameras triangulate a robot within 2 cm of the truth", "[unit]") 
   }
 }
 
-TEST_CASE("one camera gives a ground-plane fix with a larger covariance; none gives nothing", "[unit]") {
+TEST_CASE("one camera gives a ground-plane fix with a larger covariance and none gives nothing",
+          "[unit]") {
   const Home home;
   const double height = home.targets[home.targetIndex("Pippi")].height;
   const sim::Pose2 truth{2.0, 2.5, 0};
@@ -168,10 +173,12 @@ TEST_CASE("a sighting that disagrees with the others is dropped", "[unit]") {
   const auto wrong = c3.project({6.5, 4.0, height});  // something else, elsewhere
   REQUIRE(wrong);
   const auto fix = tracking::triangulate(
-      {{&c1, p1->x(), p1->y()}, {&c2, p2->x(), p2->y()}, {&c3, wrong->x(), wrong->y()}}, height, {});
+      {{&c1, p1->x(), p1->y()}, {&c2, p2->x(), p2->y()}, {&c3, wrong->x(), wrong->y()}}, height,
+      {});
   REQUIRE(fix);
   CHECK(fix->cameras == 2);
   CHECK((fix->point - truth).norm() < 1e-6);
   // Two cameras that disagree: no way to tell which is right, so no fix.
-  CHECK_FALSE(tracking::triangulate({{&c1, p1->x(), p1->y()}, {&c3, wrong->x(), wrong->y()}}, height, {}));
+  CHECK_FALSE(
+      tracking::triangulate({{&c1, p1->x(), p1->y()}, {&c3, wrong->x(), wrong->y()}}, height, {}));
 }

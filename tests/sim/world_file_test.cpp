@@ -69,18 +69,22 @@ TEST_CASE("broken world files name the file, the line and the problem", "[unit]"
              StartsWith("home.yaml:13: robot 'r1' starts inside furniture 'box'"));
   CHECK_THAT(errorOf(boxWorld("  - {name: r1, pose: [0.1, 1.5, 0]}\n")),
              StartsWith("home.yaml:13: robot 'r1' starts inside a wall"));
-  CHECK_THAT(errorOf(boxWorld(kRobot + kRobot)), StartsWith("home.yaml:14: robot 'r1' is declared twice"));
+  CHECK_THAT(errorOf(boxWorld(kRobot + kRobot)),
+             StartsWith("home.yaml:14: robot 'r1' is declared twice"));
   CHECK_THAT(errorOf(boxWorld("  - {name: r.1, pose: [1, 1, 0]}\n")),
              Contains("robot name 'r.1' must be one key part"));
-  CHECK_THAT(errorOf(boxWorld("  - {name: r1, pose: [1, 1]}\n")),
-             StartsWith("home.yaml:13: robot r1 pose [x, y, theta_deg] must be a list of 3 numbers"));
+  CHECK_THAT(
+      errorOf(boxWorld("  - {name: r1, pose: [1, 1]}\n")),
+      StartsWith("home.yaml:13: robot r1 pose [x, y, theta_deg] must be a list of 3 numbers"));
   CHECK_THAT(errorOf(boxWorld("  - {name: r1, pose: [1, 1, 0], radius: big}\n")),
              Contains("robot radius must be a number, not 'big'"));
   CHECK_THAT(errorOf(boxWorld("  - {name: r1, pose: [1, 1, 0], hat: {colour: [300, 0, 0]}}\n")),
              Contains("colour values must be 0..255"));
   CHECK_THAT(errorOf(boxWorld("", "places: {door: [3, 1.5, 0]}\n")),
              StartsWith("home.yaml:12: place 'door' is inside furniture 'box'"));
-  CHECK_THAT(errorOf(boxWorld("", "cameras:\n  - {name: up, position: [2, 1.5, 2.5], look_at: [2, 1.5, 5], up: [0, 1, 0], fx: 300}\n")),
+  CHECK_THAT(errorOf(boxWorld("",
+                              "cameras:\n  - {name: up, position: [2, 1.5, 2.5], look_at: [2, 1.5, "
+                              "5], up: [0, 1, 0], fx: 300}\n")),
              Contains("camera 'up' does not look at the floor"));
   CHECK_THAT(errorOf(boxWorld("", "cameras:\n  - {name: c, position: [2, 1.5, 2.5], fx: 300}\n")),
              StartsWith("home.yaml:13: a camera needs look_at or rotation"));
@@ -93,6 +97,7 @@ TEST_CASE("a world file that cannot be read is a clear error", "[unit]") {
   peis::test::TempDir dir("world");
   CHECK_THROWS_WITH(peis::sim::loadWorldFile(dir.file("missing.yaml")),
                     Contains("missing.yaml: cannot open the world file"));
-  const auto path = dir.write("broken.yaml", peis::test::boxWorld("  - {name: r1, pose: [9, 9, 0]}\n"));
+  const auto path =
+      dir.write("broken.yaml", peis::test::boxWorld("  - {name: r1, pose: [9, 9, 0]}\n"));
   CHECK_THROWS_WITH(peis::sim::loadWorldFile(path), StartsWith(path + ":13: robot r1 pose"));
 }

@@ -8,6 +8,10 @@
 //   <act>.reqState / .currState / .status   one actuator
 //   component.name, component.descriptor    who this is, its YAML descriptor
 //   functionalities, functionality.<f>.*   the descriptor as tuples
+//   fact.<name>[.<arg>…]      a fact for preconditions: `in-view(pippi, cam1)`
+//                             is `fact.in-view.pippi.cam1` = `true`
+//   <activation>.reqState     `on` / `off` (or the active bindings) for a
+//                             functionality with an activation actuator
 #pragma once
 
 #include <string>
@@ -35,6 +39,28 @@ inline constexpr std::string_view kCurrState = ".currState";
 inline constexpr std::string_view kActuatorStatus = ".status";
 inline constexpr std::string_view kActuatorOk = "ok";
 inline constexpr std::string_view kActuatorBusy = "busy";
+
+// Facts (docs/configuration.md): a component that observes a fact writes
+// `fact.<name>.<arg1>.<arg2>…` in its own namespace with the data `true`. Any
+// other data, deletion or expiry means the fact does not hold (now). Facts are
+// global: the planner takes the union over all PEIS.
+inline constexpr std::string_view kFactPrefix = "fact.";
+inline constexpr std::string_view kFactTrue = "true";
+
+// Values of a functionality's activation actuator (`<activation>.reqState`):
+// `on` / `off` for a functionality without variables; with variables, the
+// active bindings `var=value,var=value` (without `?`), one per active
+// instance, separated by one space, or `off` when none is active.
+inline constexpr std::string_view kActivationOn = "on";
+inline constexpr std::string_view kActivationOff = "off";
+
+// "in-view", {"pippi", "cam1"} -> "fact.in-view.pippi.cam1".
+template <typename Args>
+std::string factKey(std::string_view name, const Args& args) {
+  std::string key = std::string(kFactPrefix) + std::string(name);
+  for (const auto& arg : args) key += "." + std::string(arg);
+  return key;
+}
 
 // "position" -> "mi-position": the meta tuple of a component input.
 inline std::string metaInputKey(std::string_view input) {

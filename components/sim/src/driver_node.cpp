@@ -51,8 +51,9 @@ DriverNode::DriverNode(Options options, const Robot& robot, std::function<void(V
   kernel_ = std::make_unique<Kernel>(std::move(options));
   kernel_->setWriteGate([](const Tuple& t, PeisId, const WriteDecision& decide) {
     if (t.key == "VelCommand" && !parseVelCommand(t.data)) {
-      decide(Error(ErrorCode::Refused, "VelCommand takes 'V W' (m/s rad/s, two finite numbers), not '" +
-                                           t.data.substr(0, 60) + "'"));
+      decide(Error(ErrorCode::Refused,
+                   "VelCommand takes 'V W' (m/s rad/s, two finite numbers), not '" +
+                       t.data.substr(0, 60) + "'"));
       return true;
     }
     if (t.key == "TalkCommand" && t.data.size() > kMaxTalkBytes) {
@@ -60,18 +61,20 @@ DriverNode::DriverNode(Options options, const Robot& robot, std::function<void(V
       return true;
     }
     if (isOutput(t.key)) {
-      decide(Error(ErrorCode::Refused, t.key + " is the driver's reading; only the driver writes it"));
+      decide(
+          Error(ErrorCode::Refused, t.key + " is the driver's reading; only the driver writes it"));
       return true;
     }
     return false;
   });
-  callbacks_.push_back(kernel_->onChange(Pattern("VelCommand", kernel_->id()),
-                                         [onCommand](const Tuple& t) {
-                                           if (auto v = parseVelCommand(t.data)) onCommand(*v);
-                                         }));
+  callbacks_.push_back(
+      kernel_->onChange(Pattern("VelCommand", kernel_->id()), [onCommand](const Tuple& t) {
+        if (auto v = parseVelCommand(t.data)) onCommand(*v);
+      }));
   callbacks_.push_back(kernel_->onChange(Pattern("TalkCommand", kernel_->id()),
                                          [onTalk](const Tuple& t) { onTalk(t.data); }));
-  component_ = std::make_unique<Component>(*kernel_, "base", Descriptor::fromYaml(kBaseDescriptor, "base.yaml"));
+  component_ = std::make_unique<Component>(*kernel_, "base",
+                                           Descriptor::fromYaml(kBaseDescriptor, "base.yaml"));
   kernel_->set("Geometry.radius", numbers({robot.radius}, "%.4f"));
   std::string sonar;
   for (double a : robot.sonarAngles) sonar += (sonar.empty() ? "" : " ") + numbers({a}, "%.4f");
@@ -88,8 +91,9 @@ DriverNode::~DriverNode() {
 }
 
 void DriverNode::publishOdometry(Pose2 p, Velocity v, Timestamp stamp) {
-  kernel_->set("Odometry", numbers({p.x, p.y}, "%.4f") + " " + numbers({p.theta}, "%.5f") + " " +
-                               numbers({v.v}, "%.4f") + " " + numbers({v.w}, "%.5f"),
+  kernel_->set("Odometry",
+               numbers({p.x, p.y}, "%.4f") + " " + numbers({p.theta}, "%.5f") + " " +
+                   numbers({v.v}, "%.4f") + " " + numbers({v.w}, "%.5f"),
                at(stamp));
 }
 

@@ -7,6 +7,7 @@
 #include <iostream>
 #include <string>
 
+#include "common/command_line.h"
 #include "peis/error.h"
 #include "peis/options.h"
 #include "world_node.h"
@@ -22,7 +23,8 @@ const char* kUsage =
     "for simulated sensors and draws a top-down picture. See docs/components/sim-world.md.\n"
     "\n"
     "  --world FILE         the world file (default: the PEIS-Home, installed in\n"
-    "                       share/peis/homes/ or else " PEIS_SIM_DEFAULT_WORLD ")\n"
+    "                       share/peis/homes/ or else " PEIS_SIM_DEFAULT_WORLD
+    ")\n"
     "  --speed S            simulated seconds per real second, 0.1..100 (default 1)\n"
     "  --tick-ms N          physics step in ms of simulated time, 1..100 (default 10)\n"
     "  --duration SECONDS   end after this much simulated time (default: run until told)\n"
@@ -49,40 +51,19 @@ std::string defaultWorld() {
   return PEIS_SIM_DEFAULT_WORLD;
 }
 
-bool parseNumber(const char* text, double low, double high, double* out) {
-  if (text == nullptr || *text == '\0') return false;
-  char* end = nullptr;
-  errno = 0;
-  const double value = std::strtod(text, &end);
-  if (errno != 0 || *end != '\0' || !(value >= low && value <= high)) return false;
-  *out = value;
-  return true;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
+  using namespace peis::components;
   peis::sim::WorldConfig config;
   std::string worldPath = defaultWorld();
-  try {
-    config.peis = peis::Options::fromArgs(argc, argv);
-    if (config.peis.name.empty() || config.peis.name == config.peis.programName) config.peis.name = "world";
-  } catch (const peis::Error& e) {
-    std::cerr << "peis-sim-world: " << e.what() << "\n";
-    return 2;
-  }
-  if (config.peis.help) {
-    std::cout << kUsage << "\nPEIS options:\n" << peis::Options::helpText();
-    return 0;
-  }
+  if (auto done = parsePeisOptions(argc, argv, "peis-sim-world", kUsage, "world", config.peis))
+    return *done;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     const char* value = i + 1 < argc ? argv[i + 1] : nullptr;
     double n = 0;
-    auto bad = [&](const std::string& why) {
-      std::cerr << "peis-sim-world: " << arg << ": " << why << " (see --help)\n";
-      return 2;
-    };
+    auto bad = [&](const std::string& why) { return badArgument("peis-sim-world", arg, why); };
     if (arg == "--world" && value != nullptr) {
       worldPath = value;
     } else if (arg == "--speed" && value != nullptr) {
@@ -96,7 +77,8 @@ int main(int argc, char** argv) {
     } else if (arg == "--scene-hz" && value != nullptr) {
       if (!parseNumber(value, 1, 200, &config.sceneHz)) return bad("takes 1..200");
     } else if (arg == "--seed" && value != nullptr) {
-      if (!parseNumber(value, 0, 4294967295.0, &n) || n != static_cast<double>(static_cast<std::uint32_t>(n)))
+      if (!parseNumber(value, 0, 4294967295.0, &n) ||
+          n != static_cast<double>(static_cast<std::uint32_t>(n)))
         return bad("takes an integer 0..4294967295");
       config.seed = static_cast<std::uint32_t>(n);
     } else if (arg == "--picture" && value != nullptr) {
@@ -110,8 +92,7 @@ int main(int argc, char** argv) {
         return bad("takes PHYSICS-KEY=OWNER.KEY");
       config.bindings.emplace_back(binding.substr(0, eq), binding.substr(eq + 1));
     } else {
-      return bad(value == nullptr && arg.rfind("--", 0) == 0 ? "needs a value or is unknown"
-                                                             : "unknown argument");
+      return bad(unknownArgument(arg, value));
     }
     ++i;
   }

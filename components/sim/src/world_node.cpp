@@ -11,7 +11,7 @@
 #include "peis/error.h"
 #include "sim/world/occupancy_grid.h"
 #include "sim/world/scene.h"
-#include "sim_world_descriptor.h"
+#include "world_descriptor.h"
 
 namespace peis::sim {
 namespace {
@@ -25,7 +25,9 @@ std::string fixed(double v, int decimals) {
   return buffer;
 }
 
-std::string poseText(Pose2 p) { return fixed(p.x, 4) + " " + fixed(p.y, 4) + " " + fixed(p.theta, 5); }
+std::string poseText(Pose2 p) {
+  return fixed(p.x, 4) + " " + fixed(p.y, 4) + " " + fixed(p.theta, 5);
+}
 
 std::optional<double> number(std::string_view text) {
   std::istringstream in{std::string(text)};
@@ -45,9 +47,9 @@ std::vector<double> numbersOf(std::string_view text, std::size_t limit) {
 }
 
 bool readOnly(const std::string& key) {
-  return key.rfind("physics.", 0) == 0 || key.rfind("place.", 0) == 0 || key.rfind("room.", 0) == 0 ||
-         key.rfind("sim.", 0) == 0 || key.rfind("map", 0) == 0 || key == "places" ||
-         key == "rooms" || key == "picture";
+  return key.rfind("physics.", 0) == 0 || key.rfind("place.", 0) == 0 ||
+         key.rfind("room.", 0) == 0 || key.rfind("sim.", 0) == 0 || key.rfind("map", 0) == 0 ||
+         key == "places" || key == "rooms" || key == "picture";
 }
 
 }  // namespace
@@ -84,8 +86,8 @@ WorldNode::WorldNode(WorldConfig config, World world)
   }
   kernel_ = std::make_unique<Kernel>(config_.peis);
   startStamp_ = systemNow();
-  component_ = std::make_unique<Component>(*kernel_, "sim-world",
-                                           Descriptor::fromYaml(kSimWorldDescriptor, "sim-world.yaml"));
+  component_ = std::make_unique<Component>(
+      *kernel_, "sim-world", Descriptor::fromYaml(kSimWorldDescriptor, "sim-world.yaml"));
   installGate();
   publishStatic();
 
@@ -107,18 +109,19 @@ WorldNode::WorldNode(WorldConfig config, World world)
 
   callbacks_.push_back(kernel_->onChange(Pattern("physics.**", kernel_->id()),
                                          [this](const Tuple& t) { onPhysicsInput(t); }));
-  callbacks_.push_back(kernel_->onChange(Pattern("picture.request", kernel_->id()), [this](const Tuple&) {
-    WriteOptions png;
-    png.mimetype = "image/png";
-    png.encoding = Encoding::Binary;
-    double time = 0;
-    {
-      std::lock_guard lock(mu_);
-      time = sim_.time();
-    }
-    png.ts_user = stamp(time);
-    kernel_->set("picture", picture(), png);
-  }));
+  callbacks_.push_back(
+      kernel_->onChange(Pattern("picture.request", kernel_->id()), [this](const Tuple&) {
+        WriteOptions png;
+        png.mimetype = "image/png";
+        png.encoding = Encoding::Binary;
+        double time = 0;
+        {
+          std::lock_guard lock(mu_);
+          time = sim_.time();
+        }
+        png.ts_user = stamp(time);
+        kernel_->set("picture", picture(), png);
+      }));
   for (const char* pattern : {"position.*", "path.*"}) {
     const bool isPath = std::string(pattern) == "path.*";
     kernel_->subscribe(Pattern(pattern));
@@ -128,7 +131,8 @@ WorldNode::WorldNode(WorldConfig config, World world)
   }
   anchorWall_ = std::chrono::steady_clock::now();
   tickTimer_ = kernel_->every(kTickPeriod, [this] { tick(); });
-  if (!bindings_.empty()) bindTimer_ = kernel_->every(std::chrono::milliseconds(200), [this] { bindPending(); });
+  if (!bindings_.empty())
+    bindTimer_ = kernel_->every(std::chrono::milliseconds(200), [this] { bindPending(); });
   component_->start();
   say(0, "world '" + w.name + "' from " + w.origin + ": " + std::to_string(w.robots.size()) +
              " robots, speed " + fixed(config_.speed, 2));
@@ -152,7 +156,8 @@ std::vector<std::string> WorldNode::physicsInputs() const {
 }
 
 Timestamp WorldNode::stamp(double simTime) const {
-  return startStamp_ + std::chrono::microseconds(static_cast<std::int64_t>(std::llround(simTime * 1e6)));
+  return startStamp_ +
+         std::chrono::microseconds(static_cast<std::int64_t>(std::llround(simTime * 1e6)));
 }
 
 void WorldNode::say(double simTime, const std::string& what) {
@@ -200,7 +205,8 @@ void WorldNode::publishStatic() {
   names.clear();
   for (const Room& room : w.rooms) {
     std::string polygon;
-    for (const Vec2 p : room.polygon) polygon += (polygon.empty() ? "" : " ") + fixed(p.x, 4) + " " + fixed(p.y, 4);
+    for (const Vec2 p : room.polygon)
+      polygon += (polygon.empty() ? "" : " ") + fixed(p.x, 4) + " " + fixed(p.y, 4);
     kernel_->set("room." + room.name, polygon);
     names += (names.empty() ? "" : " ") + room.name;
   }
@@ -259,7 +265,8 @@ void WorldNode::onEstimate(const Tuple& t, bool isPath) {
     path.robot = robot;
     path.by = std::to_string(t.owner);
     path.points.clear();
-    for (std::size_t i = 0; i + 1 < values.size(); i += 2) path.points.push_back({values[i], values[i + 1]});
+    for (std::size_t i = 0; i + 1 < values.size(); i += 2)
+      path.points.push_back({values[i], values[i + 1]});
     return;
   }
   if (values.size() < 2) return;
@@ -277,8 +284,9 @@ void WorldNode::onTalk(std::size_t robot, std::string text) {
     std::lock_guard lock(mu_);
     speech = sim_.talk(robot, std::move(text));
   }
-  kernel_->set("physics.speech", speech.robot + " " + poseText(speech.at).substr(0, poseText(speech.at).rfind(' ')) +
-                                     " " + speech.text,
+  kernel_->set("physics.speech",
+               speech.robot + " " + poseText(speech.at).substr(0, poseText(speech.at).rfind(' ')) +
+                   " " + speech.text,
                WriteOptions{kDefaultMimetype, Encoding::Ascii, stamp(speech.time)});
   std::string line = speech.robot + " says '" + speech.text + "'";
   for (const auto& person : speech.woke) line += "; " + person + " wakes up";
@@ -298,15 +306,16 @@ void WorldNode::bindPending() {
     }
     const std::string target = b.physicsKey;
     kernel_->subscribe(Pattern::exact(owner, b.source.key));
-    callbacks_.push_back(kernel_->onChange(Pattern::exact(owner, b.source.key), [this, target](const Tuple& t) {
-      if (auto v = number(t.data)) {
-        const double high = target == "physics.daylight" ? 200000 : 100;
-        kernel_->set(target, fixed(std::clamp(*v, 0.0, high), 1));
-      } else {
-        std::cerr << "peis-sim-world: --bind " << target << ": ignored '" << t.data.substr(0, 40)
-                  << "' from " << t.fullName() << " (not a number)\n";
-      }
-    }));
+    callbacks_.push_back(
+        kernel_->onChange(Pattern::exact(owner, b.source.key), [this, target](const Tuple& t) {
+          if (auto v = number(t.data)) {
+            const double high = target == "physics.daylight" ? 200000 : 100;
+            kernel_->set(target, fixed(std::clamp(*v, 0.0, high), 1));
+          } else {
+            std::cerr << "peis-sim-world: --bind " << target << ": ignored '"
+                      << t.data.substr(0, 40) << "' from " << t.fullName() << " (not a number)\n";
+          }
+        }));
     b.bound = true;
     double time = 0;
     {
@@ -361,10 +370,12 @@ void WorldNode::tick() {
       for (std::size_t i = 0; i < w.objects.size(); ++i) {
         const Pose2 p = sim_.objectPose(i);
         auto known = publishedObjects_.find(w.objects[i].name);
-        if (known == publishedObjects_.end() || (known->second.position() - p.position()).norm() > 1e-3 ||
+        if (known == publishedObjects_.end() ||
+            (known->second.position() - p.position()).norm() > 1e-3 ||
             std::abs(known->second.theta - p.theta) > 1e-3) {
           publishedObjects_[w.objects[i].name] = p;
-          r.objects.emplace_back(w.objects[i].name, poseText(p) + " " + fixed(w.objects[i].weightKg, 3));
+          r.objects.emplace_back(w.objects[i].name,
+                                 poseText(p) + " " + fixed(w.objects[i].weightKg, 3));
         }
       }
       for (std::size_t i = 0; i < w.people.size(); ++i)
@@ -379,7 +390,8 @@ void WorldNode::tick() {
       const auto consider = [&](const std::string& name, Vec2 p, double z) {
         const double lux = light_.illuminance(sim_.light(), p, z);
         auto known = publishedLight_.find(name);
-        if (known == publishedLight_.end() || std::abs(known->second - lux) > 0.01 * std::max(1.0, known->second)) {
+        if (known == publishedLight_.end() ||
+            std::abs(known->second - lux) > 0.01 * std::max(1.0, known->second)) {
           publishedLight_[name] = lux;
           r.light.emplace_back(name, lux);
         }
@@ -424,7 +436,8 @@ std::string WorldNode::picture() {
   std::vector<Estimate> estimates;
   for (const auto& [key, e] : estimates_) {
     Estimate copy = e;
-    if (auto n = names.find(key.second); n != names.end() && !n->second.empty()) copy.by = n->second;
+    if (auto n = names.find(key.second); n != names.end() && !n->second.empty())
+      copy.by = n->second;
     estimates.push_back(std::move(copy));
   }
   std::vector<PlannedPath> paths;

@@ -25,15 +25,15 @@
 namespace peis::sim {
 
 struct WorldConfig {
-  double speed = 1;                    // simulated seconds per real second
-  double tick = 0.01;                  // physics step, simulated seconds
-  std::optional<double> duration;      // end after this much simulated time
-  double sceneHz = 20;                 // physics.scene rate, simulated
+  double speed = 1;                // simulated seconds per real second
+  double tick = 0.01;              // physics step, simulated seconds
+  std::optional<double> duration;  // end after this much simulated time
+  double sceneHz = 20;             // physics.scene rate, simulated
   std::uint32_t seed = 1;
-  std::string picturePath = "sim-world.png";  // empty: no picture at the end
-  double pictureScale = 100;           // pixels per metre
+  std::string picturePath = "sim-world.png";                  // empty: no picture at the end
+  double pictureScale = 100;                                  // pixels per metre
   std::vector<std::pair<std::string, std::string>> bindings;  // physics key, OWNER.KEY
-  Options peis;                        // the world PEIS's options (drivers copy them)
+  Options peis;  // the world PEIS's options (drivers copy them)
 };
 
 class WorldNode {

@@ -188,7 +188,8 @@ double LightModel::floorIlluminance(const LightState& state, Vec2 p) const {
     lux += state.daylightLux * blindOpening(i < state.blindTilt.size() ? state.blindTilt[i] : 100) *
            mapValue(windowMaps_[i], p);
   for (std::size_t i = 0; i < lampMaps_.size(); ++i)
-    lux += (i < state.lampLevel.size() ? state.lampLevel[i] : 0) / 100.0 * mapValue(lampMaps_[i], p);
+    lux +=
+        (i < state.lampLevel.size() ? state.lampLevel[i] : 0) / 100.0 * mapValue(lampMaps_[i], p);
   return lux;
 }
 

@@ -50,8 +50,8 @@ class LightModel {
 
  private:
   struct Source {
-    Vec2 a, b;          // the window's ends
-    Vec2 inward;        // unit normal into the home
+    Vec2 a, b;    // the window's ends
+    Vec2 inward;  // unit normal into the home
     double sill, top;
   };
   bool blocked(Vec2 from, Vec2 to, const Source* through) const;

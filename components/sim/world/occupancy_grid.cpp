@@ -98,7 +98,8 @@ OccupancyGrid OccupancyGrid::fromPgm(const std::string& pgm, double resolution, 
   for (int r = 0; r < rows; ++r)
     for (int c = 0; c < columns; ++c)
       grid.set(c, r,
-               static_cast<unsigned char>(pgm[header + static_cast<std::size_t>(rows - 1 - r) * columns + c]) < 128);
+               static_cast<unsigned char>(
+                   pgm[header + static_cast<std::size_t>(rows - 1 - r) * columns + c]) < 128);
   return grid;
 }
 

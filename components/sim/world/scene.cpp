@@ -15,7 +15,8 @@ Scene sceneOf(const Simulation& simulation) {
   const LightState& light = simulation.light();
   scene.daylightLux = light.daylightLux;
   for (std::size_t i = 0; i < world.windows.size(); ++i)
-    if (!world.windows[i].blind.empty()) scene.blinds.emplace_back(world.windows[i].blind, light.blindTilt[i]);
+    if (!world.windows[i].blind.empty())
+      scene.blinds.emplace_back(world.windows[i].blind, light.blindTilt[i]);
   for (std::size_t i = 0; i < world.lamps.size(); ++i)
     scene.lamps.emplace_back(world.lamps[i].name, light.lampLevel[i]);
   for (std::size_t i = 0; i < world.robots.size(); ++i)
@@ -31,7 +32,8 @@ std::string formatScene(const Scene& scene) {
   std::string out;
   char line[256];
   const auto add = [&](int n) { out.append(line, static_cast<std::size_t>(std::min(n, 255))); };
-  add(std::snprintf(line, sizeof line, "time %.4f\ndaylight %.1f\n", scene.time, scene.daylightLux));
+  add(std::snprintf(line, sizeof line, "time %.4f\ndaylight %.1f\n", scene.time,
+                    scene.daylightLux));
   for (const auto& [name, tilt] : scene.blinds)
     add(std::snprintf(line, sizeof line, "blind %s %.1f\n", name.c_str(), tilt));
   for (const auto& [name, level] : scene.lamps)
@@ -100,7 +102,8 @@ LightState lightStateOf(const World& world, const Scene& scene) {
   light.daylightLux = scene.daylightLux;
   for (std::size_t i = 0; i < world.windows.size(); ++i)
     for (const auto& [name, tilt] : scene.blinds)
-      if (!world.windows[i].blind.empty() && name == world.windows[i].blind) light.blindTilt[i] = tilt;
+      if (!world.windows[i].blind.empty() && name == world.windows[i].blind)
+        light.blindTilt[i] = tilt;
   for (std::size_t i = 0; i < world.lamps.size(); ++i)
     for (const auto& [name, level] : scene.lamps)
       if (name == world.lamps[i].name) light.lampLevel[i] = level;

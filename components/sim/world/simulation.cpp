@@ -90,7 +90,8 @@ bool Simulation::tryPush(std::size_t index, Vec2 robotAt) {
   const Robot& spec = world_.robots[index];
   if (!staticFree(robotAt, spec.radius)) return false;
   for (std::size_t i = 0; i < robots_.size(); ++i)
-    if (i != index && (robots_[i].pose.position() - robotAt).norm() < spec.radius + world_.robots[i].radius)
+    if (i != index &&
+        (robots_[i].pose.position() - robotAt).norm() < spec.radius + world_.robots[i].radius)
       return false;
   // Every movable object the robot would overlap must be light enough and
   // have room to move away from the robot.
@@ -180,7 +181,8 @@ double Simulation::castRay(Vec2 origin, double angle, double maxRange,
   for (std::size_t i = 0; i < robots_.size(); ++i)
     if (i != self) circle(robots_[i].pose.position(), world_.robots[i].radius);
   for (std::size_t i = 0; i < objects_.size(); ++i)
-    if (world_.objects[i].movable) circle(objects_[i].position(), world_.objects[i].collisionRadius());
+    if (world_.objects[i].movable)
+      circle(objects_[i].position(), world_.objects[i].collisionRadius());
   // The map's edge stops every ray.
   for (const auto& [a, b] : {std::pair{Vec2{0, 0}, Vec2{world_.size.x, 0}},
                              std::pair{Vec2{world_.size.x, 0}, world_.size},
@@ -203,7 +205,8 @@ std::vector<double> Simulation::sonar(std::size_t index) {
       continue;
     }
     const double range = std::max(0.0, hit - spec.radius);
-    ranges.push_back(std::clamp(range + (0.01 + 0.01 * range) * unit(rng_), 0.0, spec.sonarMaxRange));
+    ranges.push_back(
+        std::clamp(range + (0.01 + 0.01 * range) * unit(rng_), 0.0, spec.sonarMaxRange));
   }
   return ranges;
 }

@@ -17,16 +17,16 @@
 namespace peis::sim {
 
 struct RobotState {
-  Pose2 pose;                // ground truth
-  Velocity velocity;         // ground truth
-  Velocity command;          // the last VelCommand (clamped)
-  double commandAge = 1e9;   // seconds since it came
-  Pose2 odometry;            // what the encoders integrate (noisy)
-  Velocity measured;         // the encoders' velocities (noisy)
+  Pose2 pose;               // ground truth
+  Velocity velocity;        // ground truth
+  Velocity command;         // the last VelCommand (clamped)
+  double commandAge = 1e9;  // seconds since it came
+  Pose2 odometry;           // what the encoders integrate (noisy)
+  Velocity measured;        // the encoders' velocities (noisy)
   bool bumper = false;
-  double battery = 100;      // percent
-  double distance = 0;       // metres travelled
-  std::vector<Vec2> trail;   // ground-truth path, a point every 2 cm
+  double battery = 100;     // percent
+  double distance = 0;      // metres travelled
+  std::vector<Vec2> trail;  // ground-truth path, a point every 2 cm
 };
 
 struct Speech {

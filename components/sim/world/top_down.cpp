@@ -29,7 +29,9 @@ class Canvas {
     return {static_cast<int>(std::lround(kMargin + p.x * scale_)),
             static_cast<int>(std::lround(kMargin + 20 + (height_ - p.y) * scale_))};
   }
-  int length(double metres) const { return std::max(1, static_cast<int>(std::lround(metres * scale_))); }
+  int length(double metres) const {
+    return std::max(1, static_cast<int>(std::lround(metres * scale_)));
+  }
   std::vector<cv::Point> points(const std::vector<Vec2>& ps) const {
     std::vector<cv::Point> out;
     for (const Vec2 p : ps) out.push_back(at(p));
@@ -45,7 +47,8 @@ class Canvas {
     cv::polylines(image_, polys, closed, colour, thickness, cv::LINE_AA);
   }
   void text(const std::string& s, Vec2 p, cv::Scalar colour, double size = 0.4) {
-    cv::putText(image_, s, at(p), cv::FONT_HERSHEY_SIMPLEX, size, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+    cv::putText(image_, s, at(p), cv::FONT_HERSHEY_SIMPLEX, size, cv::Scalar(0, 0, 0), 3,
+                cv::LINE_AA);
     cv::putText(image_, s, at(p), cv::FONT_HERSHEY_SIMPLEX, size, colour, 1, cv::LINE_AA);
   }
   cv::Mat& image() { return image_; }
@@ -58,7 +61,8 @@ class Canvas {
 };
 
 // Rooms, shaded by the light on the floor (so a closed blind shows).
-void drawFloor(Canvas& canvas, const World& world, const LightModel& light, const LightState& state) {
+void drawFloor(Canvas& canvas, const World& world, const LightModel& light,
+               const LightState& state) {
   cv::Mat rooms(canvas.image().size(), CV_8UC3, cv::Scalar(0, 0, 0));
   cv::Mat mask(canvas.image().size(), CV_8UC1, cv::Scalar(0));
   for (const Room& room : world.rooms) {
@@ -72,8 +76,10 @@ void drawFloor(Canvas& canvas, const World& world, const LightModel& light, cons
   cv::Mat shade(rows, columns, CV_32FC1);
   for (int r = 0; r < rows; ++r)
     for (int c = 0; c < columns; ++c) {
-      const Vec2 p{(c + 0.5) * world.size.x / columns, world.size.y - (r + 0.5) * world.size.y / rows};
-      shade.at<float>(r, c) = static_cast<float>(0.45 + 0.55 * std::min(1.0, light.floorIlluminance(state, p) / 500));
+      const Vec2 p{(c + 0.5) * world.size.x / columns,
+                   world.size.y - (r + 0.5) * world.size.y / rows};
+      shade.at<float>(r, c) =
+          static_cast<float>(0.45 + 0.55 * std::min(1.0, light.floorIlluminance(state, p) / 500));
     }
   cv::Mat stretched(canvas.image().size(), CV_32FC1, cv::Scalar(1.0f));
   const cv::Rect floor(canvas.at({0, world.size.y}), canvas.at({world.size.x, 0}));
@@ -85,7 +91,8 @@ void drawFloor(Canvas& canvas, const World& world, const LightModel& light, cons
   lit = lit.mul(shade3);
   lit.convertTo(rooms, CV_8UC3);
   rooms.copyTo(canvas.image(), mask);
-  for (const Room& room : world.rooms) canvas.text(room.name, room.polygon.front() + Vec2{0.1, 0.1}, {90, 90, 90}, 0.45);
+  for (const Room& room : world.rooms)
+    canvas.text(room.name, room.polygon.front() + Vec2{0.1, 0.1}, {90, 90, 90}, 0.45);
 }
 
 void drawCameras(Canvas& canvas, const World& world) {
@@ -110,15 +117,20 @@ void drawRobot(Canvas& canvas, const Robot& spec, const RobotState& state) {
   trail.push_back(state.pose.position());
   canvas.outline(trail, bgr(spec.hat.colour, 0.8), 2, false);
   const cv::Point centre = canvas.at(state.pose.position());
-  cv::circle(canvas.image(), centre, canvas.length(spec.radius), bgr(spec.colour), cv::FILLED, cv::LINE_AA);
-  cv::circle(canvas.image(), centre, canvas.length(spec.hat.radius), bgr(spec.hat.colour), cv::FILLED, cv::LINE_AA);
+  cv::circle(canvas.image(), centre, canvas.length(spec.radius), bgr(spec.colour), cv::FILLED,
+             cv::LINE_AA);
+  cv::circle(canvas.image(), centre, canvas.length(spec.hat.radius), bgr(spec.hat.colour),
+             cv::FILLED, cv::LINE_AA);
   const Vec2 nose = state.pose.position() +
                     Vec2{std::cos(state.pose.theta), std::sin(state.pose.theta)} * spec.radius;
   cv::line(canvas.image(), centre, canvas.at(nose), cv::Scalar(255, 255, 255), 2, cv::LINE_AA);
-  if (state.bumper) cv::circle(canvas.image(), centre, canvas.length(spec.radius) + 3, cv::Scalar(0, 0, 255), 2, cv::LINE_AA);
+  if (state.bumper)
+    cv::circle(canvas.image(), centre, canvas.length(spec.radius) + 3, cv::Scalar(0, 0, 255), 2,
+               cv::LINE_AA);
   char label[96];
   std::snprintf(label, sizeof label, "%s %.0f%%", spec.name.c_str(), state.battery);
-  canvas.text(label, state.pose.position() + Vec2{spec.radius, spec.radius}, cv::Scalar(255, 255, 255));
+  canvas.text(label, state.pose.position() + Vec2{spec.radius, spec.radius},
+              cv::Scalar(255, 255, 255));
 }
 
 }  // namespace
@@ -138,8 +150,10 @@ Polygon fieldOfView(const camera::Calibration& c, double maxRange) {
     double t = maxRange;
     if (d.z() < -1e-9) t = std::min(t, -c.position.z() / d.z());
     const Eigen::Vector3d p = c.position + t * d;
-    if (d.z() < -1e-9 || t < maxRange) floor.push_back({p.x(), p.y()});
-    else floor.push_back({c.position.x() + maxRange * d.x(), c.position.y() + maxRange * d.y()});
+    if (d.z() < -1e-9 || t < maxRange)
+      floor.push_back({p.x(), p.y()});
+    else
+      floor.push_back({c.position.x() + maxRange * d.x(), c.position.y() + maxRange * d.y()});
   }
   return floor;
 }
@@ -158,7 +172,8 @@ std::string renderTopDown(const Simulation& simulation, const LightModel& light,
   }
   for (const Wall& wall : world.walls)
     for (std::size_t i = 1; i < wall.points.size(); ++i)
-      canvas.fill(thickSegment(wall.points[i - 1], wall.points[i], wall.thickness), cv::Scalar(40, 40, 40));
+      canvas.fill(thickSegment(wall.points[i - 1], wall.points[i], wall.thickness),
+                  cv::Scalar(40, 40, 40));
   for (std::size_t i = 0; i < world.windows.size(); ++i) {
     const Window& w = world.windows[i];
     const double tilt = simulation.light().blindTilt[i];
@@ -176,7 +191,8 @@ std::string renderTopDown(const Simulation& simulation, const LightModel& light,
     if (level > 0)
       cv::circle(canvas.image(), canvas.at(lamp.position), canvas.length(0.1 + 0.4 * level / 100),
                  cv::Scalar(80, 230, 255), 2, cv::LINE_AA);
-    cv::circle(canvas.image(), canvas.at(lamp.position), canvas.length(0.1), bgr(lamp.colour), cv::FILLED, cv::LINE_AA);
+    cv::circle(canvas.image(), canvas.at(lamp.position), canvas.length(0.1), bgr(lamp.colour),
+               cv::FILLED, cv::LINE_AA);
     char label[96];
     std::snprintf(label, sizeof label, "%s %.0f%%", lamp.name.c_str(), level);
     canvas.text(label, lamp.position + Vec2{0.12, -0.05}, cv::Scalar(80, 230, 255));
@@ -187,19 +203,23 @@ std::string renderTopDown(const Simulation& simulation, const LightModel& light,
     canvas.fill(o.footprint(), bgr(o.colour));
     char label[96];
     std::snprintf(label, sizeof label, "%s %.1f kg", o.name.c_str(), o.weightKg);
-    canvas.text(o.movable ? label : o.name, o.pose.position() + Vec2{0.15, -0.05}, cv::Scalar(220, 220, 220));
+    canvas.text(o.movable ? label : o.name, o.pose.position() + Vec2{0.15, -0.05},
+                cv::Scalar(220, 220, 220));
   }
   for (std::size_t i = 0; i < world.people.size(); ++i) {
     const Person& p = world.people[i];
-    cv::circle(canvas.image(), canvas.at(p.pose.position()), canvas.length(0.18), bgr(p.colour), cv::FILLED, cv::LINE_AA);
+    cv::circle(canvas.image(), canvas.at(p.pose.position()), canvas.length(0.18), bgr(p.colour),
+               cv::FILLED, cv::LINE_AA);
     canvas.text(p.name + " (" + simulation.personState(i) + ")", p.pose.position() + Vec2{0.2, 0},
                 cv::Scalar(40, 40, 40));
   }
   for (const PlannedPath& path : paths) {
     const Robot* robot = world.robot(path.robot);
-    canvas.outline(path.points, robot ? bgr(robot->hat.colour, 0.5) : cv::Scalar(200, 200, 200), 1, false);
+    canvas.outline(path.points, robot ? bgr(robot->hat.colour, 0.5) : cv::Scalar(200, 200, 200), 1,
+                   false);
   }
-  for (std::size_t i = 0; i < world.robots.size(); ++i) drawRobot(canvas, world.robots[i], simulation.robot(i));
+  for (std::size_t i = 0; i < world.robots.size(); ++i)
+    drawRobot(canvas, world.robots[i], simulation.robot(i));
   for (const Estimate& e : estimates) {
     const Robot* robot = world.robot(e.robot);
     const cv::Scalar colour = robot ? bgr(robot->hat.colour, 1.2) : cv::Scalar(255, 255, 255);
@@ -209,8 +229,8 @@ std::string renderTopDown(const Simulation& simulation, const LightModel& light,
     cv::drawMarker(canvas.image(), canvas.at(e.position), colour, cv::MARKER_CROSS, radius, 1);
     canvas.text(e.robot + "@" + e.by, e.position + Vec2{-0.3, -0.35}, colour, 0.35);
   }
-  cv::putText(canvas.image(), world.name + "  " + options.caption, {kMargin, 22}, cv::FONT_HERSHEY_SIMPLEX,
-              0.55, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
+  cv::putText(canvas.image(), world.name + "  " + options.caption, {kMargin, 22},
+              cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
   std::vector<unsigned char> png;
   cv::imencode(".png", canvas.image(), png);
   return std::string(png.begin(), png.end());

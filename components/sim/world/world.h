@@ -68,8 +68,8 @@ struct Lamp {
 struct Object {
   std::string name;
   Pose2 pose;
-  double radius = 0;   // > 0: a disk
-  Vec2 size;           // a box when radius is 0
+  double radius = 0;  // > 0: a disk
+  Vec2 size;          // a box when radius is 0
   double height = 0.3;
   double weightKg = 1;
   bool movable = false;
@@ -106,11 +106,11 @@ struct Robot {
   Pose2 start;
   double radius = 0.2;
   double height = 0.5;
-  double maxSpeed = 0.5, maxTurn = 1.5;         // m/s, rad/s
-  double maxAccel = 1.0, maxTurnAccel = 3.0;    // m/s², rad/s²
-  double pushKg = 0;                            // heaviest movable object it pushes
-  double cmdTimeout = 1.0;                      // s without VelCommand -> stop
-  double batteryHours = 4;                      // hours of driving on a full battery
+  double maxSpeed = 0.5, maxTurn = 1.5;       // m/s, rad/s
+  double maxAccel = 1.0, maxTurnAccel = 3.0;  // m/s², rad/s²
+  double pushKg = 0;                          // heaviest movable object it pushes
+  double cmdTimeout = 1.0;                    // s without VelCommand -> stop
+  double batteryHours = 4;                    // hours of driving on a full battery
   OdometryNoise odometryNoise;
   std::vector<double> sonarAngles;  // radians in the robot frame
   double sonarMaxRange = 3.0;

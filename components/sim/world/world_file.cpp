@@ -21,11 +21,11 @@ class WorldReader {
   World read(std::string_view text) {
     const YAML::Node root = r_.parse(text);
     if (!root.IsMap()) r_.fail(root, "a world file must be a mapping");
-    r_.onlyKeys(root,
-                {"name", "size", "resolution", "daylight_lux", "ambient_lux", "rooms", "walls",
-                 "windows", "furniture", "lamps", "objects", "people", "robots", "cameras",
-                 "places"},
-                "the world file");
+    r_.onlyKeys(
+        root,
+        {"name", "size", "resolution", "daylight_lux", "ambient_lux", "rooms", "walls", "windows",
+         "furniture", "lamps", "objects", "people", "robots", "cameras", "places"},
+        "the world file");
     World w;
     w.origin = r_.origin();
     w.sourceText = std::string(text);
@@ -43,7 +43,8 @@ class WorldReader {
     for (const auto& n : r_.list(root["rooms"], "rooms")) w.rooms.push_back(room(n));
     for (const auto& n : r_.list(root["walls"], "walls")) w.walls.push_back(wall(n));
     for (const auto& n : r_.list(root["windows"], "windows")) w.windows.push_back(window(n));
-    for (const auto& n : r_.list(root["furniture"], "furniture")) w.furniture.push_back(furniture(n));
+    for (const auto& n : r_.list(root["furniture"], "furniture"))
+      w.furniture.push_back(furniture(n));
     for (const auto& n : r_.list(root["lamps"], "lamps")) w.lamps.push_back(lamp(n));
     for (const auto& n : r_.list(root["objects"], "objects")) w.objects.push_back(object(n));
     for (const auto& n : r_.list(root["people"], "people")) w.people.push_back(person(n));
@@ -106,8 +107,8 @@ class WorldReader {
   // Things whose light the world publishes as physics.light.<name> share one namespace.
   void uniqueThing(const std::string& name, const YAML::Node& at) {
     if (!names_["thing"].insert(name).second)
-      r_.fail(at, "the name '" + name +
-                      "' is used twice among furniture, lamps, objects and people");
+      r_.fail(at,
+              "the name '" + name + "' is used twice among furniture, lamps, objects and people");
   }
 
   Room room(const YAML::Node& n) {
@@ -164,7 +165,8 @@ class WorldReader {
       const Vec2 centre = point(r_.required(b, "centre", "a box"), "box centre");
       const auto size = r_.numbers(r_.required(b, "size", "a box"), 2, "box size");
       if (size[0] <= 0 || size[1] <= 0) r_.fail(b["size"], "box size must be positive");
-      f.polygon = box(centre, {size[0], size[1]}, r_.number(b, "theta_deg", 0, "box theta_deg") * kDegree);
+      f.polygon =
+          box(centre, {size[0], size[1]}, r_.number(b, "theta_deg", 0, "box theta_deg") * kDegree);
       for (const Vec2 corner : f.polygon)
         if (!(corner.x >= 0 && corner.y >= 0 && corner.x <= size_.x && corner.y <= size_.y))
           r_.fail(b, "furniture '" + f.name + "' reaches outside the map");
@@ -241,7 +243,8 @@ class WorldReader {
     robot.name = r_.name(r_.required(n, "name", "a robot"), "robot name");
     unique("robot", robot.name, n["name"]);
     robot.driver = n["driver"] ? r_.name(n["driver"], "robot driver") : robot.name + "-base";
-    if (robot.driver.size() > 64) r_.fail(n["name"], "the driver name '" + robot.driver + "' is too long");
+    if (robot.driver.size() > 64)
+      r_.fail(n["name"], "the driver name '" + robot.driver + "' is too long");
     unique("driver", robot.driver, n["name"]);
     if (n["driver_id"])
       robot.driverId = static_cast<int>(r_.numberIn(n["driver_id"], 1, 2147483647.0, "driver_id"));
@@ -249,23 +252,30 @@ class WorldReader {
     robot.radius = r_.numberIn(n, "radius", robot.radius, 0.02, 2, "robot radius");
     robot.height = r_.numberIn(n, "height", robot.height, 0.02, 3, "robot height");
     robot.maxSpeed = r_.numberIn(n, "max_speed", robot.maxSpeed, 0.01, 10, "robot max_speed");
-    robot.maxTurn = r_.numberIn(n, "max_turn_deg_s", robot.maxTurn / kDegree, 1, 1440,
-                                "robot max_turn_deg_s") * kDegree;
+    robot.maxTurn =
+        r_.numberIn(n, "max_turn_deg_s", robot.maxTurn / kDegree, 1, 1440, "robot max_turn_deg_s") *
+        kDegree;
     robot.maxAccel = r_.numberIn(n, "max_accel", robot.maxAccel, 0.01, 100, "robot max_accel");
     robot.maxTurnAccel = r_.numberIn(n, "max_turn_accel_deg_s2", robot.maxTurnAccel / kDegree, 1,
-                                     100000, "robot max_turn_accel_deg_s2") * kDegree;
+                                     100000, "robot max_turn_accel_deg_s2") *
+                         kDegree;
     robot.pushKg = r_.numberIn(n, "push_kg", robot.pushKg, 0, 10000, "robot push_kg");
     robot.cmdTimeout = r_.numberIn(n, "cmd_timeout", robot.cmdTimeout, 0.01, 3600, "cmd_timeout");
-    robot.batteryHours = r_.numberIn(n, "battery_hours", robot.batteryHours, 0.01, 10000, "battery_hours");
+    robot.batteryHours =
+        r_.numberIn(n, "battery_hours", robot.batteryHours, 0.01, 10000, "battery_hours");
     if (const YAML::Node noise = n["odometry_noise"]) {
       r_.onlyKeys(noise, {"trans", "rot", "drift"}, "odometry_noise");
-      robot.odometryNoise.trans = r_.numberIn(noise, "trans", robot.odometryNoise.trans, 0, 1, "odometry_noise trans");
-      robot.odometryNoise.rot = r_.numberIn(noise, "rot", robot.odometryNoise.rot, 0, 1, "odometry_noise rot");
-      robot.odometryNoise.drift = r_.numberIn(noise, "drift", robot.odometryNoise.drift / kDegree, 0, 90,
-                                              "odometry_noise drift (deg/m)") * kDegree;
+      robot.odometryNoise.trans =
+          r_.numberIn(noise, "trans", robot.odometryNoise.trans, 0, 1, "odometry_noise trans");
+      robot.odometryNoise.rot =
+          r_.numberIn(noise, "rot", robot.odometryNoise.rot, 0, 1, "odometry_noise rot");
+      robot.odometryNoise.drift = r_.numberIn(noise, "drift", robot.odometryNoise.drift / kDegree,
+                                              0, 90, "odometry_noise drift (deg/m)") *
+                                  kDegree;
     }
     robot.sonarAngles.clear();
-    for (double a : {-90.0, -50.0, -30.0, -10.0, 10.0, 30.0, 50.0, 90.0}) robot.sonarAngles.push_back(a * kDegree);
+    for (double a : {-90.0, -50.0, -30.0, -10.0, 10.0, 30.0, 50.0, 90.0})
+      robot.sonarAngles.push_back(a * kDegree);
     if (const YAML::Node sonar = n["sonar"]) {
       r_.onlyKeys(sonar, {"angles_deg", "max_range"}, "sonar");
       if (sonar["angles_deg"]) {
@@ -274,13 +284,15 @@ class WorldReader {
           robot.sonarAngles.push_back(r_.numberIn(a, -360, 360, "sonar angle") * kDegree);
         if (robot.sonarAngles.size() > 64) r_.fail(sonar["angles_deg"], "at most 64 sonars");
       }
-      robot.sonarMaxRange = r_.numberIn(sonar, "max_range", robot.sonarMaxRange, 0.1, 100, "sonar max_range");
+      robot.sonarMaxRange =
+          r_.numberIn(sonar, "max_range", robot.sonarMaxRange, 0.1, 100, "sonar max_range");
     }
     if (const YAML::Node hat = n["hat"]) {
       r_.onlyKeys(hat, {"colour", "radius", "thickness"}, "a hat");
       robot.hat.colour = colour(hat, robot.hat.colour);
       robot.hat.radius = r_.numberIn(hat, "radius", robot.hat.radius, 0.01, 1, "hat radius");
-      robot.hat.thickness = r_.numberIn(hat, "thickness", robot.hat.thickness, 0, 0.5, "hat thickness");
+      robot.hat.thickness =
+          r_.numberIn(hat, "thickness", robot.hat.thickness, 0, 0.5, "hat thickness");
       if (robot.hat.radius > robot.radius) r_.fail(hat, "the hat is wider than the robot");
     }
     robot.colour = colour(n, robot.colour);
@@ -292,7 +304,8 @@ class WorldReader {
     unique("camera", spec.calibration.name, n["name"]);
     const auto& c = spec.calibration;
     if (!c.intersectHeight(c.cx, c.cy, 0))
-      r_.fail(n, "camera '" + c.name + "' does not look at the floor (its centre ray never meets z = 0)");
+      r_.fail(n, "camera '" + c.name +
+                     "' does not look at the floor (its centre ray never meets z = 0)");
     return spec;
   }
 
@@ -310,8 +323,10 @@ class WorldReader {
       if (auto what = clash(robot.start.position(), robot.radius); !what.empty())
         r_.fail(robots[i]["pose"], "robot '" + robot.name + "' starts inside " + what);
       for (std::size_t j = 0; j < i; ++j)
-        if ((w.robots[j].start.position() - robot.start.position()).norm() < robot.radius + w.robots[j].radius)
-          r_.fail(robots[i]["pose"], "robot '" + robot.name + "' starts on robot '" + w.robots[j].name + "'");
+        if ((w.robots[j].start.position() - robot.start.position()).norm() <
+            robot.radius + w.robots[j].radius)
+          r_.fail(robots[i]["pose"],
+                  "robot '" + robot.name + "' starts on robot '" + w.robots[j].name + "'");
     }
     for (const Place& place : w.places)
       if (auto what = clash(place.pose.position(), 0); !what.empty())
@@ -319,16 +334,20 @@ class WorldReader {
     const YAML::Node objects = root["objects"];
     for (std::size_t i = 0; i < w.objects.size(); ++i)
       if (w.objects[i].movable)
-        if (auto what = clash(w.objects[i].pose.position(), w.objects[i].collisionRadius()); !what.empty())
-          r_.fail(objects[i]["position"], "movable object '" + w.objects[i].name + "' is inside " + what);
+        if (auto what = clash(w.objects[i].pose.position(), w.objects[i].collisionRadius());
+            !what.empty())
+          r_.fail(objects[i]["position"],
+                  "movable object '" + w.objects[i].name + "' is inside " + what);
   }
 
   static std::vector<std::pair<std::string, Polygon>> namedObstacles(const World& w) {
     std::vector<std::pair<std::string, Polygon>> result;
     for (const Wall& wall : w.walls)
       for (std::size_t i = 1; i < wall.points.size(); ++i)
-        result.emplace_back("a wall", thickSegment(wall.points[i - 1], wall.points[i], wall.thickness));
-    for (const Furniture& f : w.furniture) result.emplace_back("furniture '" + f.name + "'", f.polygon);
+        result.emplace_back("a wall",
+                            thickSegment(wall.points[i - 1], wall.points[i], wall.thickness));
+    for (const Furniture& f : w.furniture)
+      result.emplace_back("furniture '" + f.name + "'", f.polygon);
     return result;
   }
 

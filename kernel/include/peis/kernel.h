@@ -57,7 +57,7 @@ struct PeerInfo {
 struct NetworkStats {
   std::uint64_t framesIn = 0, framesOut = 0, malformedFrames = 0, garbagePeersDisconnected = 0,
                 foreignEcologyRejected = 0, unroutable = 0, coalesced = 0, idCollisions = 0,
-                malformedBeacons = 0, beaconsSuppressed = 0;
+                malformedBeacons = 0, beaconsSuppressed = 0, slowPeersDisconnected = 0;
 };
 
 // The special tuples every PEIS publishes under "kernel.".

@@ -2,7 +2,8 @@
 // to announce itself, with a checked decoder. Pure functions on bytes.
 //
 //   u32 magic "PEIB" | u16 version | str8 ecology | i32 id | u64 incarnation |
-//   u16 tcp port | u8 flags (1: please answer with a unicast beacon)
+//   u16 tcp port | u8 flags (bit 0: please answer with a unicast beacon;
+//   bit 1: the sender is a tool PEIS)
 #pragma once
 
 #include <cstdint>
@@ -22,6 +23,7 @@ struct Beacon {
   std::uint64_t incarnation = 0;
   std::uint16_t port = 0;
   bool wantsAnswer = false;
+  bool tool = false;
   bool operator==(const Beacon&) const = default;
 };
 

@@ -1,9 +1,10 @@
 // Network: the P2P layer of one PEIS. It discovers other PEIS of the same
-// ecology (UDP beacons), keeps TCP links to some of them (handshake, pings,
-// liveness), maintains a distance-vector routing table so every PEIS reaches
-// every other one over several hops, and delivers routed frames. It knows
-// frames, not what tuples mean. Everything runs on the kernel's io_context
-// thread; no method may be called from another thread.
+// ecology (Discovery), keeps TCP links to some of them (Link, the handshake,
+// pings and liveness, the link policy), keeps a distance-vector routing table
+// so every PEIS reaches every other one over several hops (RoutingTable), and
+// delivers and forwards routed frames. It knows frames, not what tuples mean.
+// Everything runs on the kernel's io_context thread; no method may be called
+// from another thread. network.cpp is the glue between those parts.
 #pragma once
 
 #include <boost/asio/io_context.hpp>
@@ -15,12 +16,12 @@
 #include <string>
 #include <vector>
 
+#include "net/counters.h"
+#include "net/discovery.h"
 #include "net/wire.h"
 #include "peis/types.h"
 
 namespace peis::net {
-
-enum class DiscoveryScope { Off, Loopback, Lan };
 
 struct NetworkConfig {
   std::string ecology = "default";
@@ -33,8 +34,19 @@ struct NetworkConfig {
   std::chrono::milliseconds pingPeriod{500};
   std::chrono::milliseconds deadAfter{2000};  // silence after which a link is dead
   std::size_t maxDataBytes = kDefaultMaxDataBytes;
-  std::size_t coalesceAboveBytes = 4u << 20;  // backlog above which updates coalesce
-  int maxMalformedFrames = 8;                 // then the peer is disconnected
+  // A link's backlog above which it is congested: what waits for it stays in
+  // the outbox (where updates coalesce) until it has drained to half.
+  std::size_t coalesceAboveBytes = 4u << 20;
+  // A link congested for this long without taking a byte is closed; so is
+  // one whose backlog passes maxBacklogBytes (frames relayed for others and
+  // link messages do not wait in the outbox).
+  std::chrono::milliseconds stalledAfter{2000};
+  std::size_t maxBacklogBytes = 64u << 20;
+  int maxMalformedFrames = 8;  // then the peer is disconnected
+  // A short-lived tool PEIS (the `peis` command): marked as such in its
+  // Hello, beacons and route; other PEIS leave it out of their overlay, and
+  // it relays for nobody (docs/protocol.md §6, §8).
+  bool tool = false;
 };
 
 struct PeerInfo {
@@ -43,6 +55,7 @@ struct PeerInfo {
   std::uint64_t incarnation = 0;
   int hops = 0;        // 0: this PEIS, 1: a direct link
   PeisId nextHop = 0;  // the linked PEIS the route goes through
+  bool tool = false;   // a tool PEIS (NetworkConfig::tool)
 };
 
 struct LinkInfo {
@@ -51,19 +64,6 @@ struct LinkInfo {
   std::string remote;  // address:port
   bool outbound = false;
   std::size_t backlogBytes = 0;
-};
-
-struct Counters {
-  std::uint64_t framesIn = 0;
-  std::uint64_t framesOut = 0;
-  std::uint64_t malformedFrames = 0;
-  std::uint64_t garbagePeersDisconnected = 0;
-  std::uint64_t foreignEcologyRejected = 0;
-  std::uint64_t unroutable = 0;
-  std::uint64_t coalesced = 0;
-  std::uint64_t idCollisions = 0;
-  std::uint64_t malformedBeacons = 0;
-  std::uint64_t beaconsSuppressed = 0;  // periodic beacons skipped (docs/protocol.md §6)
 };
 
 class Network {
@@ -79,7 +79,7 @@ class Network {
     // Routes or links changed (hops, next hops, a link opened or closed);
     // fires after the onPeerUp / onPeerDown events of the same change.
     std::function<void()> onTopology;
-    // The links drained after congested() said true: send more.
+    // A link blocked() found congested drained (or closed): send more.
     std::function<void()> onWritable;
     // Another PEIS that started earlier holds our id: pick a new one.
     std::function<PeisId()> repickId;
@@ -94,14 +94,23 @@ class Network {
   // Binds the listener and the discovery socket; throws Error(InvalidArgument)
   // when the port is taken.
   void start();
-  void stop();
+  // Leaves the ecology: tells every linked PEIS (a Leave, passed on to the
+  // whole ecology), closes each link once what it has queued is written,
+  // and stops every timer. `closed` runs (on this thread) once no link is
+  // left, at once if there is none.
+  void stop(std::function<void()> closed = {});
 
   // Routes a message (envelope source is filled in). False when there is no
   // route to the destination (counted).
   bool send(wire::RoutedMessage message);
-  // True while some link has more than coalesceAboveBytes queued; then
-  // Events::onWritable fires once they have drained to half of that.
-  bool congested();
+  // True while the link to `destination`'s next hop has more than
+  // coalesceAboveBytes queued (the link is congested): what waits for it
+  // should wait. Events::onWritable fires once that link has drained to
+  // half of it, or closed.
+  bool blocked(PeisId destination);
+  // Closes the link to `destination`'s next hop: that peer reads too slowly
+  // (counted in slowPeersDisconnected).
+  void cutOff(PeisId destination, const std::string& reason);
   // Sends a tuple update encoded straight from the stored tuple (whose data,
   // when big, is written from the tuple itself: the link keeps it alive).
   bool sendUpdate(PeisId destination, std::uint64_t ownerIncarnation,
@@ -121,7 +130,5 @@ class Network {
   class Impl;
   std::unique_ptr<Impl> impl_;
 };
-
-DiscoveryScope parseDiscoveryScope(std::string_view text);
 
 }  // namespace peis::net

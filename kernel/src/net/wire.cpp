@@ -306,7 +306,9 @@ struct LinkEncoder {
       const auto& e = m.entries[i];
       w.i32(e.id);
       w.u8(e.hops);
+      w.u8(e.flags);
       w.u64(e.incarnation);
+      w.u32(e.seqno);
       w.str8(e.name);
     }
     endFrame(out, start);
@@ -317,6 +319,24 @@ struct LinkEncoder {
     Writer w(out);
     w.i32(m.id);
     w.u64(m.incarnation);
+    endFrame(out, start);
+  }
+  void operator()(const Leave& m) {
+    std::size_t start;
+    beginFrame(out, MessageType::Leave, start);
+    Writer w(out);
+    w.i32(m.id);
+    w.u64(m.incarnation);
+    endFrame(out, start);
+  }
+  void operator()(const SeqnoRequest& m) {
+    std::size_t start;
+    beginFrame(out, MessageType::SeqnoRequest, start);
+    Writer w(out);
+    w.i32(m.id);
+    w.u64(m.incarnation);
+    w.u32(m.seqno);
+    w.u8(m.hopLimit);
     endFrame(out, start);
   }
   void nonce(MessageType type, std::uint64_t value) {
@@ -420,11 +440,27 @@ LinkMessage decodeLink(MessageType type, Reader& r) {
         RouteEntry e;
         e.id = r.id("route id");
         e.hops = r.u8("hops");
+        e.flags = r.u8("route flags");
         e.incarnation = r.u64("incarnation");
+        e.seqno = r.u32("route seqno");
         e.name = r.str8("route name");
         if (r.ok() && !e.name.empty() && nameProblem(e.name)) r.fail("bad PEIS name in route");
         m.entries.push_back(std::move(e));
       }
+      return m;
+    }
+    case MessageType::Leave: {
+      Leave m;
+      m.id = r.id("leaving id");
+      m.incarnation = r.u64("incarnation");
+      return m;
+    }
+    case MessageType::SeqnoRequest: {
+      SeqnoRequest m;
+      m.id = r.id("requested id");
+      m.incarnation = r.u64("incarnation");
+      m.seqno = r.u32("seqno");
+      m.hopLimit = r.u8("hop limit");
       return m;
     }
     default: {
@@ -510,7 +546,7 @@ RoutedBody decodeBody(MessageType type, Reader& r, std::size_t maxDataBytes) {
   }
 }
 
-bool knownType(std::uint8_t type) { return (type >= 1 && type <= 5) || (type >= 16 && type <= 22); }
+bool knownType(std::uint8_t type) { return (type >= 1 && type <= 7) || (type >= 16 && type <= 22); }
 
 }  // namespace
 

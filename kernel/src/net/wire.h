@@ -38,7 +38,9 @@ struct Pong {
 struct RouteEntry {
   PeisId id = 0;
   std::uint8_t hops = 0;
+  std::uint8_t flags = 0;  // kRouteFlagTool
   std::uint64_t incarnation = 0;
+  std::uint32_t seqno = 0;  // the route's sequence number, set by `id` (docs/protocol.md §8)
   std::string name;
   bool operator==(const RouteEntry&) const = default;
 };
@@ -50,6 +52,18 @@ struct IdTaken {
   PeisId id = 0;
   std::uint64_t incarnation = 0;
   bool operator==(const IdTaken&) const = default;
+};
+struct Leave {
+  PeisId id = 0;  // the PEIS that left (flooded: not always the sender)
+  std::uint64_t incarnation = 0;
+  bool operator==(const Leave&) const = default;
+};
+struct SeqnoRequest {
+  PeisId id = 0;  // the PEIS asked for a newer route seqno
+  std::uint64_t incarnation = 0;
+  std::uint32_t seqno = 0;  // at least this one
+  std::uint8_t hopLimit = 0;
+  bool operator==(const SeqnoRequest&) const = default;
 };
 
 struct Envelope {
@@ -121,7 +135,7 @@ struct TupleWithheld {
   bool operator==(const TupleWithheld&) const = default;
 };
 
-using LinkMessage = std::variant<Hello, Ping, Pong, Routes, IdTaken>;
+using LinkMessage = std::variant<Hello, Ping, Pong, Routes, IdTaken, Leave, SeqnoRequest>;
 using RoutedBody = std::variant<Subscribe, Unsubscribe, TupleUpdate, TupleDeleted, Write,
                                 WriteResult, TupleWithheld>;
 struct RoutedMessage {

@@ -17,8 +17,12 @@
 //           u64 incarnation | str8 name | u16 listen port | u32 capabilities |
 //           str16 auth (empty until authentication exists)
 //   Ping    u64 nonce          Pong  u64 nonce
-//   Routes  u16 count | count x (i32 id | u8 hops | u64 incarnation | str8 name)
+//   Routes  u16 count | count x (i32 id | u8 hops | u8 flags | u64 incarnation |
+//           u32 seqno | str8 name)
 //   IdTaken i32 id | u64 incarnation  (your id is already used: re-pick)
+//   Leave   i32 id | u64 incarnation  (that PEIS quit: forget it, pass it on)
+//   SeqnoRequest i32 id | u64 incarnation | u32 seqno | u8 hop limit
+//                (asks PEIS id for a route seqno of at least `seqno`)
 //
 // Routed messages start with an envelope: i32 source | i32 destination | u8 ttl
 //   Subscribe    u64 subscription | u32 lease ms | u8 has owner | i32 owner |
@@ -77,6 +81,8 @@ enum class MessageType : std::uint8_t {
   Pong = 3,
   Routes = 4,
   IdTaken = 5,
+  Leave = 6,
+  SeqnoRequest = 7,
   Subscribe = 16,
   Unsubscribe = 17,
   TupleUpdate = 18,
@@ -93,5 +99,8 @@ inline constexpr std::uint32_t kNoDataLimit = 0xffffffff;
 
 // Capability flags in Hello.
 inline constexpr std::uint32_t kCapabilityCoalescing = 1u << 0;
+inline constexpr std::uint32_t kCapabilityTool = 1u << 1;  // a short-lived tool PEIS
+// Flags of a Routes entry.
+inline constexpr std::uint8_t kRouteFlagTool = 1u << 0;  // the PEIS is a tool
 
 }  // namespace peis::wire

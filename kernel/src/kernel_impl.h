@@ -1,0 +1,150 @@
+// Kernel::Impl: the state behind the public Kernel, grouped by what guards
+// it, and the kernel thread's work (docs/architecture.md, "Inside the
+// kernel"). Its methods live in three files by concern:
+//   kernel_impl.cpp    construction, the kernel.* tuples, quitting
+//   kernel_pump.cpp    the pump: deliveries (drain), the outbox (flush),
+//                      Subscribe retries, lease renewal, the expiry timer
+//   kernel_network.cpp the network's events, remote writes, the write gate,
+//                      id re-picks and the membership tuples
+// The public API (kernel.cpp) locks `mu` through mutate() and reads.
+#pragma once
+
+#include <atomic>
+#include <boost/asio/executor_work_guard.hpp>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <condition_variable>
+#include <deque>
+#include <future>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "adaptive_mutex.h"
+#include "net/network.h"
+#include "peis/kernel.h"
+#include "remote_writes.h"
+#include "replication.h"
+#include "thread_annotations.h"
+#include "timers.h"
+#include "tuple_space.h"
+
+namespace peis {
+
+struct Kernel::Impl {
+  Impl(Options options, PeisId pickedId);
+
+  // --- Fixed at construction (read from any thread) --------------------------
+  const Options options;
+  std::atomic<PeisId> id;  // changes only on an id re-pick (kernel thread, mu held)
+  const std::string name;
+  const std::uint64_t incarnation;
+  boost::asio::io_context io;
+  boost::asio::executor_work_guard<boost::asio::io_context::executor_type> work{io.get_executor()};
+  std::thread thread;
+  std::thread::id threadId;
+  std::atomic<std::uint64_t> callbackErrors{0};
+
+  // --- Guarded by the kernel lock `mu` ------------------------------------------
+  // Application threads and the kernel thread meet here; every access to the
+  // space and to replication holds it (the analysis checks it under clang).
+  mutable AdaptiveMutex mu;
+  // Signalled (mu held) on every mutation while `waiters` > 0: blocking get.
+  mutable std::condition_variable_any changed;
+  TupleSpace space GUARDED_BY(mu);
+  Replication replication GUARDED_BY(mu);
+  bool drainScheduled GUARDED_BY(mu) = false;
+  bool flushScheduled GUARDED_BY(mu) = false;
+  bool retryArmed GUARDED_BY(mu) = false;             // retryTimer armed or posted
+  bool networkStopped GUARDED_BY(mu) = false;         // no retry timer after stopNetwork
+  mutable int waiters GUARDED_BY(mu) = 0;             // threads blocked in get(…, wait)
+  std::vector<PeerInfo> peerSnapshot GUARDED_BY(mu);  // what peers() returns
+  std::string publishedSubscribers GUARDED_BY(mu);
+  WriteGate writeGate GUARDED_BY(mu);
+
+  // --- Kernel thread only (no lock) ----------------------------------------------
+  std::unique_ptr<net::Network> network;
+  RemoteWrites remoteWrites;
+  boost::asio::steady_timer leaseTimer{io};
+  boost::asio::steady_timer retryTimer{io};  // Replication::retryUnanswered
+  boost::asio::steady_timer flushTimer{io};  // the next flush of a stream
+  boost::asio::steady_timer expiryTimer{io};
+  Timestamp scheduledExpiry = kNoTime;
+  std::deque<TupleSpace::Delivery> batch;       // deliveries taken, being run
+  std::vector<Replication::Outgoing> outgoing;  // flush's, memory reused
+  std::vector<std::string> sentFrames;          // frames handed to links
+
+  // --- Guarded by their own locks -------------------------------------------------
+  TimerTable timers;
+  mutable AdaptiveMutex quitMu;
+  std::condition_variable_any quitCv;
+  bool quitting GUARDED_BY(quitMu) = false;
+  std::string quitReason GUARDED_BY(quitMu);
+
+  // --- kernel_impl.cpp ---
+  void publishSpecialTuples() EXCLUDES(mu);
+  void requestQuit(std::string reason) EXCLUDES(quitMu);
+  // A callback, timer function, posted function or completion threw.
+  void reportThrown(std::string_view message);
+
+  // Runs fn(space, replication) under the lock, then wakes the kernel
+  // thread and blocked readers as needed.
+  template <typename F>
+  auto mutate(F&& fn) EXCLUDES(mu) {
+    MutexLock lock(mu);
+    auto result = fn(space, replication);
+    afterMutation();
+    return result;
+  }
+
+  // Runs `fn` on the kernel thread and waits for it (not from the kernel thread).
+  template <typename F>
+  void onKernelThreadAndWait(F&& fn) {
+    std::promise<void> done;
+    boost::asio::post(io, [&] {
+      try {
+        fn();
+        done.set_value();
+      } catch (...) {
+        done.set_exception(std::current_exception());
+      }
+    });
+    done.get_future().get();
+  }
+
+  // --- kernel_pump.cpp ---
+  // Posts drain / flush / the retry timer as the state needs; wakes readers.
+  void afterMutation() REQUIRES(mu);
+  void drain() EXCLUDES(mu);
+  void flush() EXCLUDES(mu);
+  void onWritable() EXCLUDES(mu);
+  void armRetry() EXCLUDES(mu);
+  void leaseLoop();
+  // After a write of a tuple that expires: arm the expiry timer for it.
+  void noteExpiry(const Tuple& tuple);
+  void scheduleExpiry(Timestamp at);  // kernel thread
+
+  // --- kernel_network.cpp ---
+  void startNetwork() EXCLUDES(mu);
+  // Fails pending remote writes, leaves the ecology (a Leave on every link)
+  // and stops the network; `closed` runs once its links are closed.
+  void stopNetwork(std::function<void()> closed) EXCLUDES(mu);
+  void onMessages(std::vector<wire::RoutedMessage>&& messages) EXCLUDES(mu);
+  void onPeerUp(const net::PeerInfo& peer) EXCLUDES(mu);
+  void onPeerDown(PeisId peer) EXCLUDES(mu);
+  void onTopology() EXCLUDES(mu);
+  PeisId repickId() EXCLUDES(mu);
+  void holdWrite(const WriteGate& gate, PeisId source, wire::Write&& write);
+  // Checks a write to another owner on the calling thread, then sends it
+  // from the kernel thread; `done` completes it there.
+  void remoteWrite(wire::WriteOp op, PeisId owner, std::string_view key, std::string data,
+                   std::optional<std::uint64_t> ifSeqno, const WriteOptions& writeOptions,
+                   WriteDone done);
+  void snapshotPeers() REQUIRES(mu);
+  void refreshMembershipTuples() REQUIRES(mu);
+  void refreshSubscribersTuple() REQUIRES(mu);
+};
+
+}  // namespace peis

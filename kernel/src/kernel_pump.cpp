@@ -1,0 +1,200 @@
+// The kernel's pump: what moves work from the state under `mu` to the kernel
+// thread and out. `drain` runs queued deliveries (callbacks) with no lock
+// held, `flush` hands the replication outbox to the network in bounded
+// turns, and the timers renew leases, retry unanswered Subscribes and expire
+// tuples (docs/architecture.md, "The kernel thread").
+#include "kernel_impl.h"
+#include "log.h"
+#include "saturating_time.h"
+
+namespace peis {
+namespace asio = boost::asio;
+
+namespace {
+
+constexpr std::size_t kDeliveriesPerTurn = 256;  // then let timers and posts run
+constexpr std::size_t kMessagesPerTurn = 1024;   // network sends per turn, likewise
+constexpr std::size_t kBytesPerTurn = 1u << 20;  // of tuple updates per turn, likewise
+// A flush that carried this many messages is part of a stream: the next one
+// waits kStreamFlushDelay to collect more (docs/architecture.md, "Flush").
+constexpr std::size_t kStreamMessages = 16;
+constexpr std::chrono::microseconds kStreamFlushDelay{50};
+// What may wait in the outbox for one destination whose link is congested
+// before the link is closed (docs/protocol.md §13).
+constexpr std::size_t kMaxWaitingBytes = 16u << 20;
+
+}  // namespace
+
+void Kernel::Impl::afterMutation() {
+  if (!flushScheduled && replication.outbox().hasReady()) {
+    flushScheduled = true;
+    asio::post(io, [this] { flush(); });
+  }
+  if (!drainScheduled && (space.hasPendingDeliveries() || space.allKeysDirty())) {
+    drainScheduled = true;
+    asio::post(io, [this] { drain(); });
+  }
+  if (waiters > 0) changed.notify_all();
+  if (!retryArmed && replication.hasUnanswered()) {
+    retryArmed = true;
+    asio::post(io, [this] { armRetry(); });
+  }
+}
+
+void Kernel::Impl::armRetry() {  // kernel thread
+  std::optional<std::chrono::steady_clock::time_point> at;
+  {
+    MutexLock lock(mu);
+    at = replication.nextRetry();
+    if (!at || networkStopped) {
+      retryArmed = false;
+      return;
+    }
+  }
+  retryTimer.expires_at(*at);
+  retryTimer.async_wait([this](const boost::system::error_code& ec) {
+    MutexLock lock(mu);
+    retryArmed = false;
+    if (ec) return;
+    replication.retryUnanswered(std::chrono::steady_clock::now());
+    afterMutation();  // sends them, and arms the timer again if more are due
+  });
+}
+
+void Kernel::Impl::drain() {  // kernel thread: deliveries taken from the space, run in turns
+  for (std::size_t ran = 0;; ++ran) {
+    if (batch.empty()) {
+      MutexLock lock(mu);
+      space.takeAllDeliveries(batch);  // a swap: one lock for all queued
+      if (batch.empty()) {
+        if (space.allKeysDirty()) {
+          space.flushAllKeys();  // may queue deliveries of its own
+          if (waiters > 0) changed.notify_all();
+          continue;
+        }
+        drainScheduled = false;
+        return;
+      }
+    }
+    if (ran == kDeliveriesPerTurn) {
+      asio::post(io, [this] { drain(); });  // more: yield to timers and sockets first
+      return;
+    }
+    const auto& delivery = batch.front();
+    // Each throwing callback is counted; the others for the event still run.
+    delivery.run([&](std::exception_ptr error) {
+      const auto what = delivery.tuple() ? delivery.tuple()->fullName() : std::string("?");
+      try {
+        std::rethrow_exception(error);
+      } catch (const std::exception& e) {
+        reportThrown("a callback for " + what + " threw: " + e.what());
+      } catch (...) {
+        reportThrown("a callback for " + what + " threw");
+      }
+    });
+    batch.pop_front();
+  }
+}
+
+void Kernel::Impl::flush() {  // kernel thread
+  outgoing.clear();
+  std::vector<PeisId> cutOff;
+  {
+    MutexLock lock(mu);
+    auto& outbox = replication.outbox();
+    for (auto& frames : sentFrames) outbox.recycleFrames(std::move(frames));
+    sentFrames.clear();
+    // What waits for a destination whose link is congested stays in its
+    // queue (coalescing there); every other destination is served.
+    const bool more = outbox.take(
+        outgoing, kMessagesPerTurn, kBytesPerTurn,
+        [this](PeisId destination) { return network && network->blocked(destination); });
+    for (const auto destination : outbox.blocked()) {
+      if (outbox.waitingFor(destination) > kMaxWaitingBytes) {
+        outbox.drop(destination);
+        cutOff.push_back(destination);
+      }
+    }
+    std::size_t messages = 0;
+    for (const auto& out : outgoing) messages += out.frameCount > 0 ? out.frameCount : 1;
+    if (more) {
+      asio::post(io, [this] { flush(); });  // more: let the sockets drain first
+    } else if (messages >= kStreamMessages) {
+      // A writer is streaming: collect its next updates for a moment
+      // rather than have every few of them wake this thread (which costs
+      // the writer a system call each time). flushScheduled stays set.
+      flushTimer.expires_after(kStreamFlushDelay);
+      flushTimer.async_wait([this](const boost::system::error_code& ec) {
+        if (!ec) flush();
+      });
+    } else {
+      flushScheduled = false;
+    }
+  }
+  for (auto& out : outgoing) {
+    if (!network) break;
+    if (out.frameCount > 0) {
+      network->sendFrames(out.destination, out.frames, out.frameCount);
+      sentFrames.push_back(std::move(out.frames));  // its memory goes back at the next flush
+    } else if (out.update) {
+      network->sendUpdate(out.destination, incarnation, out.update);
+    } else {
+      network->send(wire::RoutedMessage{wire::Envelope{0, out.destination, wire::kDefaultTtl},
+                                        std::move(*out.body)});
+    }
+  }
+  outgoing.clear();  // drop the references to sent tuples now
+  // A peer that takes in less than it is sent, for longer than coalescing
+  // can absorb (messages that do not coalesce: the results of the writes it
+  // keeps sending, say), is cut off.
+  for (const auto destination : cutOff) {
+    if (network) {
+      network->cutOff(destination, "over " + std::to_string(kMaxWaitingBytes >> 20) +
+                                       " MiB waited for it (it reads too slowly)");
+    }
+  }
+}
+
+void Kernel::Impl::onWritable() {  // kernel thread: a congested link drained
+  {
+    MutexLock lock(mu);
+    replication.outbox().unblockAll();
+  }
+  flush();
+}
+
+void Kernel::Impl::leaseLoop() {  // kernel thread
+  leaseTimer.expires_after(options.subscriptionLease / 3);
+  leaseTimer.async_wait([this](const boost::system::error_code& ec) {
+    if (ec) return;
+    {
+      MutexLock lock(mu);
+      replication.renew();
+      if (replication.expireLeases(std::chrono::steady_clock::now())) refreshSubscribersTuple();
+      afterMutation();
+    }
+    leaseLoop();
+  });
+}
+
+void Kernel::Impl::noteExpiry(const Tuple& tuple) {
+  if (tuple.ts_expire == kNoTime) return;
+  asio::post(io, [this, at = tuple.ts_expire] { scheduleExpiry(at); });
+}
+
+void Kernel::Impl::scheduleExpiry(Timestamp at) {  // kernel thread
+  if (scheduledExpiry != kNoTime && scheduledExpiry <= at) return;
+  scheduledExpiry = at;
+  expiryTimer.expires_after(timerWait(at, systemNow()));  // far-off: fires early, re-armed
+  expiryTimer.async_wait([this](const boost::system::error_code& ec) {
+    if (ec) return;  // re-scheduled earlier or shutting down
+    scheduledExpiry = kNoTime;
+    const auto next = mutate([](TupleSpace& s, Replication&) {
+      s.expire();
+      return s.nextExpiry();
+    });
+    if (next != kNoTime) scheduleExpiry(next);
+  });
+}
+
+}  // namespace peis

@@ -1,0 +1,139 @@
+// Link: one TCP connection to another PEIS, as bytes and frames. It reads
+// straight into its frame buffer and hands each whole frame to its handler
+// (the Network), and writes queued frames in chunks with gathered writes (the
+// data of a big tuple is written from the stored tuple itself). It knows
+// nothing of routing or of what frames mean, beyond their length prefix; the
+// handshake state and the peer's Hello are kept here for the Network.
+// Kernel thread only (the io_context's).
+#pragma once
+
+#include <boost/asio/ip/tcp.hpp>
+#include <chrono>
+#include <cstddef>
+#include <deque>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "net/wire.h"
+
+namespace peis::net {
+
+struct Counters;
+class Link;
+
+// What a Link reports to its owner.
+class LinkHandler {
+ public:
+  // One whole frame (type and body, without the length prefix); it lives
+  // only for the call.
+  virtual void onFrame(Link& link, std::string_view frame) = 0;
+  // The head (the first kOversizeHeadBytes) of a frame longer than this
+  // PEIS's limit but within the protocol's: the rest is skipped. True when
+  // answered (docs/protocol.md §2.1); false makes it a framing error.
+  virtual bool onOversize(Link& link, std::string_view head) = 0;
+  // Every frame of one socket read was handed over.
+  virtual void onReadDone(Link& link) = 0;
+  // A write finished (the link's backlog() went down).
+  virtual void onWritten(Link& link) = 0;
+  // The link closed (by either end, or an error); it sends and reads no more.
+  virtual void onClosed(Link& link, const std::string& reason) = 0;
+
+ protected:
+  ~LinkHandler() = default;
+};
+
+class Link : public std::enable_shared_from_this<Link> {
+ public:
+  using SteadyClock = std::chrono::steady_clock;
+
+  // `maxFrameBytes`: the largest frame length accepted (a bigger one is a
+  // framing error: the link closes). `explicitIndex`: the --peis-connect
+  // entry it serves, or -1.
+  Link(LinkHandler& handler, Counters& counters, std::size_t maxFrameBytes,
+       boost::asio::ip::tcp::socket socket, bool outbound, int explicitIndex);
+
+  // Sends our Hello and starts reading.
+  void start(const wire::Hello& hello);
+  // Queues one whole encoded frame (length prefix included).
+  void sendFrame(std::string_view frame);
+  // Queues a tuple update encoded straight from the stored tuple (a big
+  // tuple's data is written from the tuple, which the queue keeps alive).
+  void sendUpdate(const wire::Envelope& envelope, std::uint64_t incarnation,
+                  const std::shared_ptr<const Tuple>& tuple);
+  // Queues `frames` whole frames encoded elsewhere (copied).
+  void sendBytes(std::string_view bytes, std::uint32_t frames);
+  void close(const std::string& reason);
+  // Sends what is queued, then closes.
+  void closeAfterFlush(const std::string& reason);
+
+  // Bytes queued or being written.
+  std::size_t backlog() const { return inFlight_ + queued_; }
+  // Bytes have arrived that are not read yet (a sign of life).
+  bool bytesWaiting();
+  // Part of a frame has arrived and the rest has not (a big frame in transit).
+  bool midFrame() const { return inEnd_ > inPos_ || skip_ > 0; }
+  bool closed() const { return closed_; }
+  // How long the write under way has been waiting for the peer to take it
+  // (zero when none is).
+  SteadyClock::duration writeWaiting(SteadyClock::time_point now) const {
+    return writing_ ? now - writingSince_ : SteadyClock::duration::zero();
+  }
+
+  // --- State the Network keeps about the link --------------------------------
+  const bool outbound_;
+  const int explicitIndex_;
+  std::string remote_;  // address:port
+  bool established_ = false;
+  wire::Hello peer_;  // the peer's Hello, once established_
+  SteadyClock::time_point lastHeard_;
+  SteadyClock::time_point lastSent_;  // the last write started
+  SteadyClock::time_point establishedAt_;
+  int malformed_ = 0;
+  // The last source whose frames passed the Network's source checks on this
+  // link, and the routes epoch they were checked in.
+  PeisId checkedSource_ = 0;
+  std::uint64_t checkedEpoch_ = 0;
+  PeisId dialTarget_ = 0;  // the beacon peer this link was dialled for
+  // Found congested by the Network (its backlog over the high-water mark);
+  // cleared when it drains to half.
+  bool congested_ = false;
+
+ private:
+  // Frames waiting to be written: bytes, then (when set) a tuple's data,
+  // which is the end of the frame those bytes begin.
+  struct Chunk {
+    std::string bytes;
+    std::shared_ptr<const Tuple> tail;
+    std::size_t size() const { return bytes.size() + (tail ? tail->data.size() : 0); }
+  };
+  std::string& appendable(std::size_t bytes);
+  void keepSpareChunk();
+  void write();
+  void read();
+  void makeReadRoom();
+  void parse();
+
+  LinkHandler& handler_;
+  Counters& counters_;
+  const std::size_t maxFrameBytes_;
+  boost::asio::ip::tcp::socket socket_;
+  bool closed_ = false;
+  std::unique_ptr<char[]> in_;
+  std::size_t inCapacity_ = 0;
+  std::size_t readRoom_;
+  std::size_t inPos_ = 0, inEnd_ = 0;
+  std::size_t skip_ = 0;          // bytes of an oversized frame still to be skipped
+  std::vector<Chunk> outChunks_;  // being written
+  std::string spareChunk_;        // the memory of a written chunk, for the next
+  std::vector<boost::asio::const_buffer> outBuffers_;
+  std::size_t inFlight_ = 0;
+  std::deque<Chunk> chunks_;
+  std::size_t queued_ = 0;
+  bool writing_ = false;
+  SteadyClock::time_point writingSince_;
+  std::string closeReason_;
+};
+
+}  // namespace peis::net

@@ -1,0 +1,150 @@
+// peis-config: the configuration planner on the command line (`peis config …`
+// runs it, as git runs git-<command>). Offline subcommands work on a saved
+// model file; the online ones (apply, show, model, events) talk to the
+// ecology and are added to the table below by the runtime part of meta/.
+#include <cstdlib>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "peis/error.h"
+#include "peis/meta/planner.h"
+
+namespace {
+
+struct Subcommand {
+  const char* name;
+  const char* usage;
+  const char* summary;
+  int (*run)(const std::vector<std::string>& args);
+};
+
+int usageError(const std::string& message) {
+  std::cerr << "peis-config: " << message << " (see peis-config --help)\n";
+  return 2;
+}
+
+// plan GOAL… --model FILE [--goals FILE] [--json] [--time-limit MS] [--first]
+int plan(const std::vector<std::string>& args) {
+  std::string modelFile, goalsFile;
+  bool json = false, first = false;
+  long timeLimitMs = 1000;
+  std::vector<std::string> goalArgs;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const auto& a = args[i];
+    auto value = [&](const char* what) -> std::string {
+      if (i + 1 >= args.size()) throw std::invalid_argument(std::string(what) + " needs a value");
+      return args[++i];
+    };
+    if (a == "--model") {
+      modelFile = value("--model");
+    } else if (a == "--goals") {
+      goalsFile = value("--goals");
+    } else if (a == "--json") {
+      json = true;
+    } else if (a == "--first") {
+      first = true;
+    } else if (a == "--time-limit") {
+      const auto text = value("--time-limit");
+      char* end = nullptr;
+      timeLimitMs = std::strtol(text.c_str(), &end, 10);
+      if (*end || timeLimitMs < 0) throw std::invalid_argument("--time-limit takes milliseconds");
+    } else if (a.rfind("--", 0) == 0) {
+      throw std::invalid_argument("unknown option " + a);
+    } else {
+      goalArgs.push_back(a);
+    }
+  }
+  if (modelFile.empty()) {
+    throw std::invalid_argument(
+        "--model FILE is required (planning on the live ecology comes with "
+        "the configurator)");
+  }
+  auto goals = peis::meta::Goals::fromArguments(goalArgs);
+  if (!goalsFile.empty()) {
+    auto more = peis::meta::Goals::fromFile(goalsFile);
+    goals.information.insert(goals.information.end(), more.information.begin(),
+                             more.information.end());
+    goals.run.insert(goals.run.end(), more.run.begin(), more.run.end());
+    auto& c = goals.constraints;
+    c.avoidPeis.insert(c.avoidPeis.end(), more.constraints.avoidPeis.begin(),
+                       more.constraints.avoidPeis.end());
+    c.avoid.insert(c.avoid.end(), more.constraints.avoid.begin(), more.constraints.avoid.end());
+    c.prefer.insert(c.prefer.end(), more.constraints.prefer.begin(), more.constraints.prefer.end());
+  }
+  if (goals.empty()) throw std::invalid_argument("no goal given");
+  peis::meta::ConfigurationPlanner planner(peis::meta::Model::fromFile(modelFile));
+  peis::meta::PlanOptions options;
+  options.timeLimit = std::chrono::milliseconds(timeLimitMs);
+  options.firstSolutionOnly = first;
+  const auto result = planner.plan(goals, options);
+  std::cout << (json ? peis::meta::formatJson(result) + "\n" : peis::meta::formatText(result));
+  return result.ok() ? 0 : 1;
+}
+
+// check --model FILE: reads a model file (and the descriptors it names).
+int check(const std::vector<std::string>& args) {
+  if (args.size() != 2 || args[0] != "--model")
+    throw std::invalid_argument("usage: check --model FILE");
+  const auto model = peis::meta::Model::fromFile(args[1]);
+  std::size_t functionalities = 0;
+  for (const auto& p : model.peis) {
+    for (const auto& d : p.components) functionalities += d.functionalities.size();
+  }
+  std::cout << args[1] << ": " << model.peis.size() << " PEIS, " << functionalities
+            << " functionalities, " << model.facts.size() << " facts\n";
+  return 0;
+}
+
+const std::vector<Subcommand> kSubcommands = {
+    {"plan", "plan GOAL… --model FILE [--goals FILE] [--json] [--time-limit MS] [--first]",
+     "plan the cheapest configuration for the goals on a saved model", plan},
+    {"check", "check --model FILE", "read a model file and its descriptors, report errors", check},
+};
+
+void help() {
+  std::cout << "Usage: peis-config SUBCOMMAND [ARGS]   (also: peis config SUBCOMMAND …)\n\n";
+  for (const auto& s : kSubcommands)
+    std::cout << "  " << s.usage << "\n      " << s.summary << "\n";
+  std::cout << R"(
+Goals (one per argument):
+  TERM                  information that must be produced, e.g. 'activity(johanna,kitchen)'
+  TERM@PEIS.KEY         ... and delivered to a meta input, e.g. 'position(vac)@vac.mi-position'
+  run:PEIS/COMPONENT/FUNCTIONALITY[{?var=value,…}]   a functionality that must run
+  avoid:PEIS  avoid:SELECTOR   never plan on that PEIS / instance
+  prefer:SELECTOR              the instance's own cost is waived when chosen
+
+--time-limit MS (default 1000) bounds the search: the best configuration found
+is printed with its lower bound. Exit status: 0 a configuration, 1 none, 2 bad
+arguments or input. Files and their schema: docs/configuration.md.
+)";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  if (args.empty() || args[0] == "--help" || args[0] == "-h" || args[0] == "help") {
+    help();
+    return args.empty() ? 2 : 0;
+  }
+  for (const auto& s : kSubcommands) {
+    if (args[0] != s.name) continue;
+    std::vector<std::string> rest(args.begin() + 1, args.end());
+    for (const auto& a : rest) {
+      if (a == "--help" || a == "-h") {
+        std::cout << "Usage: peis-config " << s.usage << "\n" << s.summary << "\n";
+        return 0;
+      }
+    }
+    try {
+      return s.run(rest);
+    } catch (const std::invalid_argument& e) {
+      return usageError(e.what());
+    } catch (const peis::Error& e) {
+      std::cerr << "peis-config: " << e.what() << "\n";
+      return 2;
+    }
+  }
+  return usageError("unknown subcommand '" + args[0] + "'");
+}
