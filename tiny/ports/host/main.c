@@ -6,7 +6,11 @@
  * Environment: TINY_MEDIUM_PORT, TINY_MEDIUM_SLOTS, TINY_LOSS, TINY_DUP,
  * TINY_DELAY_MS, TINY_JITTER_MS (the medium, see host_medium.h);
  * TINY_LIGHT (the light sensor: a fixed level 0..1000, default a slow
- * day-night ramp), TINY_WEIGHT (the weight sensor in grams, default 1250).
+ * day-night ramp), TINY_WEIGHT (the weight sensor in grams, default 1250),
+ * TINY_SENSOR_FILE (a file of lines "light N" / "weight N" written by a
+ * host-side adapter, e.g. peis-sim-sensors feeding the simulated home's
+ * light model and objects; a channel it names wins over TINY_LIGHT and
+ * TINY_WEIGHT, re-read at most every 100 ms).
  * Every report is a line "<event> <value>" on stdout; the kernel counters go
  * to stderr at exit (SIGINT, SIGTERM or --run-ms). */
 #define _POSIX_C_SOURCE 200809L
@@ -34,9 +38,34 @@ void tiny_port_report(const char *event, long value) {
   fflush(stdout);
 }
 
+/* The sensor file: "light N" and "weight N" lines; -1 = not given. */
+static long file_values[2] = {-1, -1};
+static uint32_t file_read_ms;
+static int file_read_once;
+
+static void read_sensor_file(void) {
+  const char *path = getenv("TINY_SENSOR_FILE");
+  char name[16];
+  long value;
+  FILE *f;
+  if (path == NULL || *path == '\0') return;
+  if (file_read_once && (uint32_t)(host_now_ms() - file_read_ms) < 100u) return;
+  file_read_once = 1;
+  file_read_ms = host_now_ms();
+  f = fopen(path, "r");
+  if (f == NULL) return; /* not written yet: keep the last values */
+  while (fscanf(f, "%15s %ld", name, &value) == 2) {
+    if (strcmp(name, "light") == 0) file_values[TINY_SENSOR_LIGHT] = value;
+    if (strcmp(name, "weight") == 0) file_values[TINY_SENSOR_WEIGHT] = value;
+  }
+  fclose(f);
+}
+
 long tiny_port_sensor(uint8_t channel) {
   const char *v;
   uint32_t t = host_now_ms() - start_ms;
+  read_sensor_file();
+  if (channel < 2 && file_values[channel] >= 0) return file_values[channel];
   switch (channel) {
     case TINY_SENSOR_LIGHT:
       v = getenv("TINY_LIGHT");

@@ -1,0 +1,261 @@
+// peis-executor: the plan executor PEIS-component. Runs a plan (from
+// --plan or its `plan` tuple) with the PlanRunner state machine: deploys
+// each step's configuration needs, writes the step's ExecGoal to the PEIS
+// that executes it, follows that PEIS's ExecStatus, withdraws the needs, and
+// on a failure replans (retrying the remaining steps; the task planner takes
+// this over once peis::meta links here). docs/components/executor.md.
+#include <peis/component.h>
+
+#include <iostream>
+#include <map>
+#include <memory>
+
+#include "configurator_link.h"
+#include "execution/exec_server.h"
+#include "execution/program_options.h"
+#include "executor_descriptor.h"
+#include "plan_runner.h"
+#include "plan_text.h"
+
+namespace {
+
+const char* kUsage = R"usage(Usage: peis-executor [OPTIONS] [--peis-* flags]
+
+Runs a plan: for each step, deploys the configuration it needs, writes the
+step's ExecGoal to the PEIS that executes it and follows that PEIS's ExecStatus.
+
+Options:
+  --plan PLAN         the plan to run at start: STEP; STEP; ... where a STEP is
+                      ACTION [| NEED ...], e.g.
+                      "GoTo(Pippi, bed) | position(pippi)@Pippi.mi-position; Talk(Pippi, wakeup)"
+                      (a plan written later to this PEIS's `plan` tuple runs too)
+  --action RULE       NAME=PEIS:GOAL with $1..$9 for the step's arguments, e.g.
+                      Talk=$1-voice:Talk($2); repeatable. Without a rule a step
+                      goes to the PEIS its first argument names.
+  --link LINK         INFORMATION=PEIS.KEY: the static configuration that
+                      serves needs, e.g. position(pippi)=tracker.position.Pippi
+  --configurator KIND static (default: the --link table) or goal-tuples (post
+                      the needs as this PEIS's config.goal.<name> tuple for the
+                      meta-level's configurator; deployed when the consumers'
+                      meta tuples point somewhere)
+  --replans N         failures retried before giving up (default 2)
+  --deploy-timeout S  seconds for a step's configuration (default 15)
+  --step-timeout S    seconds for a step's action (default 600)
+  --exit              exit when the plan ends: 0 on success, 1 on failure
+  --help              this text
+
+Tuples: plan (in), plan.status (running / success / failed: CAUSE), plan.step.
+)usage";
+
+struct Settings {
+  std::string plan;
+  peis::executor::ActionMap actions;
+  std::vector<peis::executor::StaticLink> links;
+  int replans = 2;
+  double deployTimeout = 15, stepTimeout = 600;
+  bool exitWhenDone = false;
+  std::string configurator = "static";
+};
+
+bool takeOption(Settings& s, const std::string& name, const std::string& value) {
+  if (name == "--exit") {
+    s.exitWhenDone = true;
+  } else if (name == "--plan") {
+    peis::executor::parsePlan(value);  // throws on a malformed plan
+    s.plan = value;
+  } else if (name == "--action") {
+    s.actions.add(value);
+  } else if (name == "--link") {
+    s.links.push_back(peis::executor::parseStaticLink(value));
+  } else if (name == "--configurator") {
+    if (value != "static" && value != "goal-tuples")
+      throw std::invalid_argument("--configurator takes static or goal-tuples");
+    s.configurator = value;
+  } else if (name == "--replans" || name == "--deploy-timeout" || name == "--step-timeout") {
+    const auto number = peis::exec::parseNumber(value);
+    if (!number || *number < 0) throw std::invalid_argument(name + " takes a non-negative number");
+    if (name == "--replans") s.replans = static_cast<int>(*number);
+    if (name == "--deploy-timeout") s.deployTimeout = *number;
+    if (name == "--step-timeout") s.stepTimeout = *number;
+  } else {
+    return false;
+  }
+  return true;
+}
+
+using peis::executor::Command;
+using peis::executor::Phase;
+
+// The shell: carries out the runner's commands on the kernel thread.
+struct Shell {
+  peis::Kernel& kernel;
+  Settings settings;
+  peis::executor::PlanRunner runner;
+  std::unique_ptr<peis::executor::ConfiguratorLink> configurator;
+  std::map<peis::PeisId, peis::CallbackHandle> watched;  // ExecStatus callbacks by PEIS
+  int exitCode = -1;
+
+  void log(const std::string& line) { std::cerr << "executor: " << line << std::endl; }
+
+  void publishPhase() {
+    std::string text;
+    switch (runner.phase()) {
+      case Phase::Succeeded:
+        text = "success";
+        break;
+      case Phase::Failed:
+        text = "failed: " + runner.cause();
+        break;
+      case Phase::Idle:
+        text = "idle";
+        break;
+      default:
+        text = std::string("running ") + toString(runner.phase()) + " step " +
+               std::to_string(runner.stepIndex() + 1) + "/" + std::to_string(runner.plan().size());
+    }
+    kernel.set("plan.status", text);
+    if (runner.stepIndex() < runner.plan().size())
+      kernel.set("plan.step", runner.plan()[runner.stepIndex()].toString());
+  }
+
+  void apply(const std::vector<Command>& commands) {
+    const auto epochBefore = runner.epoch();
+    for (const auto& c : commands) carryOut(c);
+    publishPhase();
+    if (runner.epoch() != epochBefore) armTimer();
+  }
+
+  void armTimer() {
+    double seconds = 0;
+    if (runner.phase() == Phase::Deploying) seconds = settings.deployTimeout;
+    if (runner.phase() == Phase::Dispatching) seconds = 15;
+    if (runner.phase() == Phase::Executing) seconds = settings.stepTimeout;
+    if (seconds <= 0) return;
+    const auto epoch = runner.epoch();
+    kernel.after(std::chrono::milliseconds(static_cast<long>(seconds * 1000)),
+                 [this, epoch] { apply(runner.onTimeout(epoch)); });
+  }
+
+  void watch(peis::PeisId id) {
+    if (watched.count(id)) return;
+    kernel.subscribe(peis::Pattern("ExecStatus", id));
+    watched[id] = kernel.onChange(peis::Pattern("ExecStatus", id), [this](const peis::Tuple& t) {
+      const auto status = peis::exec::parseExecStatus(t.data);
+      if (!status) return log("unreadable ExecStatus '" + t.data + "' ignored");
+      log("ExecStatus of " + std::to_string(t.owner) + ": " + t.data);
+      apply(runner.onStatus(*status));
+    });
+  }
+
+  void carryOut(const Command& c) {
+    switch (c.kind) {
+      case Command::Kind::PostNeeds:
+        log("deploying " + join(c.needs));
+        configurator->post(c.needs, [this](const std::optional<std::string>& error) {
+          kernel.post([this, error] {
+            apply(error ? runner.onDeployFailed(*error) : runner.onDeployed());
+          });
+        });
+        break;
+      case Command::Kind::WithdrawNeeds:
+        log("withdrawing " + join(c.needs));
+        configurator->withdraw(c.needs);
+        break;
+      case Command::Kind::SendGoal: {
+        // A PEIS that has not joined yet gets a while (a plan may start first).
+        const auto dispatch = c.dispatch;
+        peis::exec::resolvePeer(
+            kernel, dispatch.peis, std::chrono::seconds(10),
+            [this, dispatch](std::optional<peis::PeisId> id) {
+              if (!id)
+                return apply(runner.onGoalRefused("no PEIS named '" + dispatch.peis + "' joined"));
+              watch(*id);
+              log("ExecGoal " + dispatch.peis + " <- " + dispatch.goal);
+              kernel.setAsync(*id, peis::exec::kExecGoal, dispatch.goal, {},
+                              [this](const std::optional<peis::Error>& error, std::uint64_t seqno) {
+                                apply(error ? runner.onGoalRefused(error->what())
+                                            : runner.onGoalAccepted(seqno));
+                              });
+            });
+        break;
+      }
+      case Command::Kind::RequestPlan: {
+        // No task planner linked yet: the new plan is the rest of the current
+        // one, from the failed step (a retry). peis::meta's planTask replaces this.
+        log("replanning after: " + c.text);
+        std::vector<peis::executor::PlanStep> rest(
+            runner.plan().begin() + static_cast<long>(runner.stepIndex()), runner.plan().end());
+        kernel.post([this, rest] { apply(runner.onPlan(rest)); });
+        break;
+      }
+      case Command::Kind::Finished:
+        log("plan " + c.text);
+        if (settings.exitWhenDone) {
+          exitCode = runner.phase() == Phase::Succeeded ? 0 : 1;
+          kernel.quit("plan " + c.text);
+        }
+        break;
+    }
+  }
+
+  static std::string join(const std::vector<std::string>& items) {
+    std::string out;
+    for (const auto& i : items) out += (out.empty() ? "" : ", ") + i;
+    return out;
+  }
+
+  void startPlan(const std::string& text) {
+    try {
+      auto plan = peis::executor::parsePlan(text);
+      log("running plan: " + peis::executor::formatPlan(plan));
+      apply(runner.start(std::move(plan)));
+    } catch (const std::invalid_argument& e) {
+      log(std::string("plan refused: ") + e.what());
+      kernel.set("plan.status", std::string("failed: ") + e.what());
+    }
+  }
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  peis::Kernel kernel(argc, argv);
+  Settings settings;
+  if (const int code =
+          peis::exec::parseProgramOptions(argc, argv, "peis-executor", kUsage,
+                                          [&settings](const std::string& n, const std::string& v) {
+                                            return takeOption(settings, n, v);
+                                          },
+                                          {"--exit"});
+      code >= 0)
+    return code;
+  peis::Component component(kernel, "executor",
+                            peis::Descriptor::fromYaml(kExecutorDescriptor, "executor.yaml"));
+  Shell shell{kernel,  settings, peis::executor::PlanRunner(settings.actions, settings.replans),
+              nullptr, {},       -1};
+  if (settings.configurator == "goal-tuples")
+    shell.configurator = std::make_unique<peis::executor::GoalTupleConfigurator>(
+        kernel, "config.goal." + kernel.name(),
+        std::chrono::milliseconds(static_cast<long>(settings.deployTimeout * 1000)));
+  else
+    shell.configurator =
+        std::make_unique<peis::executor::StaticConfigurator>(kernel, settings.links);
+  // A plan written to `plan` (locally or remotely) starts a run; a malformed
+  // one is refused at the gate.
+  kernel.setWriteGate([](const peis::Tuple& t, peis::PeisId, const peis::WriteDecision& decide) {
+    if (t.key != "plan") return false;
+    try {
+      peis::executor::parsePlan(t.data);
+      return false;
+    } catch (const std::invalid_argument& e) {
+      decide(peis::Error(peis::ErrorCode::Refused, e.what()));
+      return true;
+    }
+  });
+  kernel.onChange(peis::Pattern::exact(kernel.id(), "plan"),
+                  [&shell](const peis::Tuple& t) { shell.startPlan(t.data); });
+  component.start();
+  if (!settings.plan.empty()) kernel.set("plan", settings.plan);
+  kernel.run();
+  return shell.exitCode < 0 ? 0 : shell.exitCode;
+}

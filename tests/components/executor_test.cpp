@@ -1,0 +1,129 @@
+// The plan executor and the talk output as separate processes: Emil's plan
+// for waking Johanna up (javaspace-peis-middleware.txt §5) run on Pippi
+// through ExecGoal / ExecStatus, its configuration deployed and withdrawn,
+// and a plan that cannot succeed ending `failed` with the cause.
+#include <catch2/catch.hpp>
+#include <filesystem>
+
+#include "home_support.h"
+#include "support/temp_dir.h"
+
+using peis::test::Home;
+using peis::test::programPath;
+using peis::test::waitFor;
+using namespace std::chrono_literals;
+
+TEST_CASE("the executor runs GoTo(bed), Talk(wakeup), GoTo(sofa) on Pippi and Johanna wakes up",
+          "[integration]") {
+  Home home("exec-wake");
+  peis::test::TempDir speech("talk");
+  home.start(programPath("peis-sim-world"), {"--speed", "2"});
+  home.start(programPath("peis-navigation"), {"--peis-name", "Pippi", "--base", "Pippi-base"});
+  home.start(programPath("peis-talk"), {"--peis-name", "Pippi-voice", "--base", "Pippi-base",
+                                        "--out-dir", speech.path.string()});
+  // The tracker runs without cameras: the link is deployed, Pippi stays on odometry.
+  home.start(programPath("peis-tracker"),
+             {"--targets", std::string(PEIS_SOURCE_DIR) + "/components/sim/homes/peis-home.yaml"});
+  for (const char* name : {"world", "Pippi-base", "Pippi", "Pippi-voice", "tracker"})
+    REQUIRE(home.await(name) != 0);
+  const peis::PeisId world = home.await("world"), pippi = home.await("Pippi");
+  home.observer->subscribe(peis::Pattern("physics.person.Johanna", world));
+  home.observer->subscribe(peis::Pattern("mi-position", pippi));
+  auto& executor =
+      home.start(programPath("peis-executor"),
+                 {"--peis-name", "Emil-planner", "--exit", "--action", "Talk=$1-voice:Talk($2)",
+                  "--link", "position(pippi)=tracker.position.Pippi", "--plan",
+                  "GoTo(Pippi, bed) | position(pippi)@Pippi.mi-position; Talk(Pippi, wakeup); "
+                  "GoTo(Pippi, sofa) | position(pippi)@Pippi.mi-position"});
+  // While a GoTo runs, Pippi's mi-position points at the tracker.
+  CHECK(waitFor(
+      [&] {
+        const auto meta = home.observer->get(pippi, "mi-position");
+        return meta && meta->data.find(".position.Pippi") != std::string::npos;
+      },
+      60s));
+  const auto exit = executor.wait(240s);
+  INFO(executor.describe() << home.describeAll());
+  REQUIRE(exit == 0);
+  CHECK(executor.err().find("plan success") != std::string::npos);
+  const auto johanna = home.observer->get(world, "physics.person.Johanna");
+  REQUIRE(johanna);
+  CHECK(johanna->data == "awake");
+  // Withdrawn after the last step.
+  CHECK(waitFor([&] {
+    const auto meta = home.observer->get(pippi, "mi-position");
+    return meta && meta->data.empty();
+  }));
+  // The speech was written to a WAV file.
+  bool wav = false;
+  for (const auto& entry : std::filesystem::directory_iterator(speech.path))
+    wav = wav || (entry.path().extension() == ".wav" && entry.file_size() > 1000);
+  CHECK(wav);
+}
+
+TEST_CASE("a plan whose step keeps failing ends failed with the cause", "[integration]") {
+  Home home("exec-fail");
+  home.start(programPath("peis-sim-world"), {"--speed", "2"});
+  home.start(programPath("peis-navigation"), {"--peis-name", "Pippi", "--base", "Pippi-base"});
+  REQUIRE(home.await("Pippi") != 0);
+  REQUIRE(home.await("world") != 0);
+  auto& executor = home.start(programPath("peis-executor"),
+                              {"--exit", "--replans", "1", "--plan", "GoTo(Pippi, attic)"});
+  const auto exit = executor.wait(120s);
+  INFO(executor.describe());
+  REQUIRE(exit == 1);
+  CHECK(
+      executor.err().find("plan failed: GoTo(Pippi, attic) failed on Pippi: unknown place 'attic' "
+                          "(gave up after 1 replans)") != std::string::npos);
+}
+
+TEST_CASE("the executor refuses a malformed plan and bad options", "[integration]") {
+  Home home("exec-bad");
+  auto& bad = home.start(programPath("peis-executor"), {"--plan", "GoTo(bed"});
+  CHECK(bad.wait(30s) == 2);
+  CHECK(bad.err().find("plan step 'GoTo(bed'") != std::string::npos);
+  auto& badLink = home.start(programPath("peis-executor"), {"--link", "position"});
+  CHECK(badLink.wait(30s) == 2);
+  auto& help = home.start(programPath("peis-executor"), {"--help"});
+  CHECK(help.wait(30s) == 0);
+  CHECK(help.out().find("Usage: peis-executor") != std::string::npos);
+}
+
+TEST_CASE("with goal tuples, the executor posts a step's needs and waits for their deployment",
+          "[integration]") {
+  Home home("exec-goals");
+  home.start(programPath("peis-sim-world"), {"--speed", "2"});
+  home.start(programPath("peis-navigation"), {"--peis-name", "Pippi", "--base", "Pippi-base"});
+  const peis::PeisId pippi = home.await("Pippi");
+  REQUIRE(pippi != 0);
+  auto& executor =
+      home.start(programPath("peis-executor"),
+                 {"--peis-name", "planner", "--exit", "--configurator", "goal-tuples", "--plan",
+                  "GoTo(Pippi, bedroom-door) | position(pippi)@Pippi.mi-position"});
+  const peis::PeisId planner = home.await("planner");
+  REQUIRE(planner != 0);
+  home.observer->subscribe(peis::Pattern("config.goal.*", planner));
+  home.observer->subscribe(peis::Pattern("plan.status", planner));
+  // The goal is posted where a configurator finds it…
+  REQUIRE(waitFor(
+      [&] {
+        const auto goal = home.observer->get(planner, "config.goal.planner");
+        return goal && goal->data == "position(pippi)@Pippi.mi-position\n";
+      },
+      60s));
+  // …and nothing is dispatched until it is deployed.
+  const auto waiting = home.observer->get(planner, "plan.status");
+  REQUIRE(waiting);
+  CHECK(waiting->data.rfind("running deploying", 0) == 0);
+  // Stand in for the configurator's deployment: point the meta tuple.
+  home.observer->set("position.Pippi", "5.0 4.0");
+  home.observer->setMeta(pippi, "mi-position", home.observer->id(), "position.Pippi");
+  const auto exit = executor.wait(120s);
+  INFO(executor.describe());
+  REQUIRE(exit == 0);
+  // Withdrawn after the plan.
+  CHECK(waitFor([&] {
+    const auto goal = home.observer->get(planner, "config.goal.planner");
+    return goal && goal->data.empty();
+  }));
+}
