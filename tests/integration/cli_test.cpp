@@ -371,11 +371,9 @@ TEST_CASE("peis FOO runs a peis-FOO program found beside peis, in libexec or on 
   CHECK(overridden.out() == "override\n");
 }
 
-// PeerInfo::tool is carried by the network once the foundation issue's
-// network work (helper kernel-split) lands; until then remote peers always
-// read tool = false and this test fails, so it is hidden ([.]) and not
-// registered with CTest. Enable it by tagging it [integration] then.
-TEST_CASE("peis ls leaves the short-lived tool PEIS out unless --all", "[.][needs-tool-flag]") {
+// PeerInfo::tool travels in the Hello and the route adverts
+// (docs/protocol.md), so every peer knows a `peis` command's PEIS as a tool.
+TEST_CASE("peis ls leaves the short-lived tool PEIS out unless --all", "[integration]") {
   const auto ecology = uniqueEcology("cli-ls-tools");
   auto node = peis::test::startNode(ecology, {"--peis-name", "plain-node"});
   const auto nodeInfo = peis::test::awaitNode(*node);
