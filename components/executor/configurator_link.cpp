@@ -5,6 +5,7 @@
 #include <memory>
 
 #include "execution/exec_server.h"
+#include "monitor/goal_tuples.h"
 
 namespace peis::executor {
 
@@ -78,54 +79,53 @@ GoalTupleConfigurator::GoalTupleConfigurator(Kernel& kernel, std::string goalKey
                                              std::chrono::milliseconds deadline)
     : kernel_(kernel), goalKey_(std::move(goalKey)), deadline_(deadline) {}
 
-void GoalTupleConfigurator::publish() {
-  std::string text;
-  for (const auto& need : posted_) text += need + "\n";
-  kernel_.set(goalKey_, text);
+std::uint64_t GoalTupleConfigurator::publish() {
+  return kernel_.set(goalKey_, meta::formatGoalTuple(posted_)).seqno;
 }
 
 void GoalTupleConfigurator::post(const std::vector<std::string>& needs, Done done) {
-  std::vector<NeedParts> parts;
   for (const auto& need : needs) {
-    const auto p = parseNeed(need);
-    if (!p) return done("'" + need + "' is not INFORMATION@PEIS.KEY");
-    parts.push_back(*p);
+    if (!parseNeed(need)) return done("'" + need + "' is not INFORMATION@PEIS.KEY");
     if (std::find(posted_.begin(), posted_.end(), need) == posted_.end()) posted_.push_back(need);
   }
-  publish();
-  // Deployed when every consumer's meta tuple points somewhere.
+  if (!subscribed_) {
+    kernel_.subscribe(Pattern(std::string(meta::kGoalStatusKey)));
+    subscribed_ = true;
+  }
+  const auto seqno = publish();
+  // Deployed when a configurator answers this seqno of the tuple (or a later one).
   struct Watch : std::enable_shared_from_this<Watch> {
     Kernel& kernel;
-    std::vector<NeedParts> parts;
+    std::string key;
+    std::uint64_t seqno;
     Done done;
     std::chrono::steady_clock::time_point until;
-    std::vector<bool> subscribed;
-    Watch(Kernel& k, std::vector<NeedParts> p, Done d, std::chrono::steady_clock::time_point u)
-        : kernel(k), parts(std::move(p)), done(std::move(d)), until(u), subscribed(parts.size()) {}
+    std::string last = "no configurator answered";
+    Watch(Kernel& k, std::string key, std::uint64_t s, Done d,
+          std::chrono::steady_clock::time_point u)
+        : kernel(k), key(std::move(key)), seqno(s), done(std::move(d)), until(u) {}
     void check() {
-      bool all = true;
-      for (std::size_t i = 0; i < parts.size(); ++i) {
-        PeisId consumer = 0;
-        try {
-          consumer = kernel.resolveOwner(parts[i].consumer);
-        } catch (const Error&) {
-          all = false;
-          continue;
+      for (const auto& t : kernel.find(Pattern(std::string(meta::kGoalStatusKey)))) {
+        for (const auto& line : meta::parseGoalStatus(t.data)) {
+          if (line.owner != kernel.id() || line.key != key || line.seqno < seqno) continue;
+          switch (line.state) {
+            case meta::GoalState::Deployed:
+              return done(std::nullopt);
+            case meta::GoalState::Infeasible:
+            case meta::GoalState::Refused:
+              return done(std::string("the configurator says ") + meta::toString(line.state) +
+                          ": " + line.reason);
+            case meta::GoalState::Pending:
+              last = "pending: " + line.reason;
+          }
         }
-        if (!subscribed[i]) {
-          kernel.subscribe(Pattern(parts[i].key, consumer));
-          subscribed[i] = true;
-        }
-        const auto meta = kernel.get(consumer, parts[i].key);
-        all = all && meta && !meta->data.empty();
       }
-      if (all) return done(std::nullopt);
       if (std::chrono::steady_clock::now() >= until)
-        return done("the configurator did not deploy it in time");
-      kernel.after(std::chrono::milliseconds(100), [self = shared_from_this()] { self->check(); });
+        return done("the configurator did not deploy it in time (" + last + ")");
+      kernel.after(std::chrono::milliseconds(20), [self = shared_from_this()] { self->check(); });
     }
   };
-  auto watch = std::make_shared<Watch>(kernel_, std::move(parts), std::move(done),
+  auto watch = std::make_shared<Watch>(kernel_, goalKey_, seqno, std::move(done),
                                        std::chrono::steady_clock::now() + deadline_);
   kernel_.post([watch] { watch->check(); });
 }

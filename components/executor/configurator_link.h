@@ -1,14 +1,12 @@
-// How the executor gets the configuration a step needs, kept behind one small
-// interface because the configurator (meta-level, branch meta-runtime) and
-// its goal tuples are not there yet. `post` asks for the needs of a step and
-// reports through `done` (no error = deployed); `withdraw` gives them back.
+// How the executor gets the configuration a step needs, behind one small
+// interface: `post` asks for the needs of a step and reports through `done`
+// (no error = deployed); `withdraw` gives them back.
 //
 // StaticConfigurator is the hand-written configuration of the tiny paper's
 // experiment ("the ecology configuration has been hand-coded"): a table
 // INFORMATION -> producer PEIS.KEY; posting `position(pippi)@Pippi.mi-position`
 // points Pippi's meta tuple mi-position at the producer (a remote write the
-// consumer acknowledges), withdrawing empties it. A configurator-backed
-// implementation replaces it once docs/configuration.md defines the goals.
+// consumer acknowledges), withdrawing empties it.
 #pragma once
 
 #include <peis/kernel.h>
@@ -46,12 +44,14 @@ class StaticConfigurator : public ConfiguratorLink {
   std::chrono::milliseconds peerWait_;
 };
 
-// Through the meta-level's configurator (branch meta-runtime,
+// Through the meta-level's configurator (peis-configurator, goal tuples in
 // meta/monitor/goal_tuples.h): the needs being pursued are posted as the
 // executor's own `config.goal.<name>` tuple, one goal per line, and withdrawn
 // by rewriting it without them (empty when none is left). A post counts as
-// deployed once every need's consumer meta tuple points somewhere (the
-// configurator's deployment wrote it); it fails after `deadline`.
+// deployed when a configurator's `config.goal-status` says `deployed` for
+// that tuple at (or after) the posted seqno; `infeasible` or `refused`
+// fails it at once with the configurator's reason, and no answer by
+// `deadline` fails it with the last state seen.
 class GoalTupleConfigurator : public ConfiguratorLink {
  public:
   GoalTupleConfigurator(Kernel& kernel, std::string goalKey,
@@ -60,11 +60,12 @@ class GoalTupleConfigurator : public ConfiguratorLink {
   void withdraw(const std::vector<std::string>& needs) override;
 
  private:
-  void publish();
+  std::uint64_t publish();
   Kernel& kernel_;
   std::string goalKey_;
   std::chrono::milliseconds deadline_;
   std::vector<std::string> posted_;
+  bool subscribed_ = false;
 };
 
 }  // namespace peis::executor

@@ -1,7 +1,8 @@
 // peis-config: the configuration planner on the command line (`peis config …`
 // runs it, as git runs git-<command>). Offline subcommands work on a saved
-// model file; the online ones (apply, show, model, events) talk to the
-// ecology and are added to the table below by the runtime part of meta/.
+// model file; the online ones (model, apply, withdraw, show, events, and
+// plan without --model) join the ecology as a tool PEIS
+// (programs/config_online.h).
 #include <cstdlib>
 #include <iostream>
 #include <string>
@@ -9,6 +10,8 @@
 
 #include "peis/error.h"
 #include "peis/meta/planner.h"
+#include "peis/options.h"
+#include "programs/config_online.h"
 
 namespace {
 
@@ -24,11 +27,12 @@ int usageError(const std::string& message) {
   return 2;
 }
 
-// plan GOAL… --model FILE [--goals FILE] [--json] [--time-limit MS] [--first]
+// plan GOAL… [--model FILE] [--goals FILE] [--json] [--time-limit MS] [--first] [--wait S]
 int plan(const std::vector<std::string>& args) {
   std::string modelFile, goalsFile;
   bool json = false, first = false;
   long timeLimitMs = 1000;
+  double waitSeconds = 3;
   std::vector<std::string> goalArgs;
   for (std::size_t i = 0; i < args.size(); ++i) {
     const auto& a = args[i];
@@ -49,17 +53,20 @@ int plan(const std::vector<std::string>& args) {
       char* end = nullptr;
       timeLimitMs = std::strtol(text.c_str(), &end, 10);
       if (*end || timeLimitMs < 0) throw std::invalid_argument("--time-limit takes milliseconds");
+    } else if (a == "--wait") {
+      const auto text = value("--wait");
+      char* end = nullptr;
+      waitSeconds = std::strtod(text.c_str(), &end);
+      if (*end || !(waitSeconds >= 0) || waitSeconds > 86400)
+        throw std::invalid_argument("--wait takes seconds from 0 to 86400");
     } else if (a.rfind("--", 0) == 0) {
       throw std::invalid_argument("unknown option " + a);
     } else {
       goalArgs.push_back(a);
     }
   }
-  if (modelFile.empty()) {
-    throw std::invalid_argument(
-        "--model FILE is required (planning on the live ecology comes with "
-        "the configurator)");
-  }
+  if (modelFile.empty())
+    return peis::meta::cli::planLive(goalArgs, goalsFile, json, timeLimitMs, first, waitSeconds);
   auto goals = peis::meta::Goals::fromArguments(goalArgs);
   if (!goalsFile.empty()) {
     auto more = peis::meta::Goals::fromFile(goalsFile);
@@ -97,9 +104,24 @@ int check(const std::vector<std::string>& args) {
 }
 
 const std::vector<Subcommand> kSubcommands = {
-    {"plan", "plan GOAL… --model FILE [--goals FILE] [--json] [--time-limit MS] [--first]",
-     "plan the cheapest configuration for the goals on a saved model", plan},
+    {"plan",
+     "plan GOAL… [--model FILE] [--goals FILE] [--json] [--time-limit MS] [--first] [--wait S]",
+     "plan the cheapest configuration for the goals on a saved model (or the live one)", plan},
     {"check", "check --model FILE", "read a model file and its descriptors, report errors", check},
+    {"model", "model [--json | --yaml | --save FILE] [--local] [--wait S]",
+     "print the live model of the ecology (the configurator's, else introspected here)",
+     peis::meta::cli::model},
+    {"apply", "apply GOAL… [--goals FILE] [--as LABEL] [--dry-run] [--json] [--wait S] [--timeout S]",
+     "plan and deploy: through the running configurator (its goal tuple config.goal.LABEL), "
+     "else once from here",
+     peis::meta::cli::apply},
+    {"withdraw", "withdraw [--as LABEL] [--wait S]",
+     "withdraw the goals that apply posted to the configurator", peis::meta::cli::withdraw},
+    {"show", "show [--json] [--wait S]", "print the configuration deployed now",
+     peis::meta::cli::show},
+    {"events", "events [--follow] [--count N] [--timeout S] [--from PEIS] [--json] [--wait S]",
+     "print the configurator's events in order (with --follow, new ones as they come)",
+     peis::meta::cli::events},
 };
 
 void help() {
@@ -115,14 +137,21 @@ Goals (one per argument):
   prefer:SELECTOR              the instance's own cost is waived when chosen
 
 --time-limit MS (default 1000) bounds the search: the best configuration found
-is printed with its lower bound. Exit status: 0 a configuration, 1 none, 2 bad
-arguments or input. Files and their schema: docs/configuration.md.
+is printed with its lower bound. The online subcommands join the ecology
+(--peis-* options and PEIS_* variables apply) and wait up to --wait S (3) for
+its tuples. Exit status: 0 done (a configuration), 1 none or not deployed, 2
+bad arguments or input. Files and their schema: docs/configuration.md.
 )";
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
+  try {
+    peis::meta::cli::setPeisOptions(peis::Options::fromArgs(argc, argv));
+  } catch (const peis::Error& e) {
+    return usageError(e.what());
+  }
   std::vector<std::string> args(argv + 1, argv + argc);
   if (args.empty() || args[0] == "--help" || args[0] == "-h" || args[0] == "help") {
     help();

@@ -1,0 +1,539 @@
+// The configurator's control loop (see configurator.h).
+#include "monitor/configurator.h"
+
+#include <algorithm>
+#include <condition_variable>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <thread>
+
+#include "deploy/deployer.h"
+#include "introspect/introspector.h"
+#include "monitor/event_log.h"
+#include "monitor/goal_tuples.h"
+#include "monitor/health.h"
+#include "peis/error.h"
+#include "peis/meta/planner.h"
+
+namespace peis::meta {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using std::chrono::milliseconds;
+
+constexpr milliseconds kPublishEvery{100};
+constexpr milliseconds kLookAgainAtLeast{500};
+
+std::string fixed(double value, int decimals = 3) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, value);
+  return buf;
+}
+
+double msSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+struct GoalSource {
+  int owner = 0;
+  std::string ownerName;
+  std::string key;
+  std::uint64_t seqno = 0;
+  std::string text;
+  std::string origin() const { return ownerName + "." + key; }
+};
+
+// What planning for the goal tuples gave.
+struct Planned {
+  bool ok = false;
+  PlanResult result;
+  std::string failure;  // why there is no configuration
+  std::vector<GoalStatusLine> status;
+  std::size_t goals = 0;
+};
+
+Model withEveryPeisAlive(Model model) {
+  for (auto& p : model.peis) p.alive = true;
+  model.failed.clear();
+  return model;
+}
+
+std::string joined(const std::vector<std::string>& lines, const std::string& separator) {
+  std::string text;
+  for (const auto& l : lines) text += (text.empty() ? "" : separator) + l;
+  return text;
+}
+
+}  // namespace
+
+struct Configurator::Impl {
+  Kernel& kernel;
+  ConfiguratorOptions options;
+  Introspector introspector;
+  Deployer deployer;
+  EventLog events;
+  HealthMonitor monitor;
+  FailedParts failed;
+
+  // The planner and what it indexes (alive flags and failures applied on top).
+  std::optional<ConfigurationPlanner> planner;
+  Model plannerShape;
+  std::set<std::string> appliedFailed;
+  Model lastModel;
+  bool haveModel = false;
+
+  // What is deployed.
+  std::optional<PlanResult> deployed;
+  std::string deployedSources;  // the goal tuples it serves
+  bool hadGoals = false;
+  std::optional<Clock::time_point> driftSince;
+  std::string publishedStatus;
+
+  bool active = false;
+  std::string role;
+  std::uint64_t publishedVersion = ~0ull;
+  Clock::time_point lastPublish{};
+
+  std::mutex mu;
+  std::condition_variable wake;
+  bool woken = false;
+  bool stopping = false;
+  std::thread thread;
+
+  Impl(Kernel& k, ConfiguratorOptions o)
+      : kernel(k),
+        options(resolved(k, o)),
+        introspector(k),
+        deployer(k, options.deploy),
+        events(k, options.eventsKept),
+        monitor(MonitorPolicy{options.grace, options.settle}),
+        failed(options.recoverHold, options.retryAfter) {}
+
+  static ConfiguratorOptions resolved(Kernel& k, ConfiguratorOptions o) {
+    const auto liveness = k.options().liveness;
+    if (o.grace.count() == 0) o.grace = liveness;
+    if (o.settle.count() == 0) o.settle = o.grace;
+    if (o.recoverHold.count() == 0) o.recoverHold = 2 * o.grace;
+    if (o.startupWait.count() == 0) o.startupWait = 2 * liveness;
+    return o;
+  }
+
+  void start() {
+    introspector.setListener([this] {
+      std::lock_guard lock(mu);
+      woken = true;
+      wake.notify_one();
+    });
+    setRole("standby");
+    thread = std::thread([this] { run(); });
+  }
+
+  void stop() {
+    {
+      std::lock_guard lock(mu);
+      stopping = true;
+      wake.notify_one();
+    }
+    if (thread.joinable()) thread.join();
+    introspector.setListener(nullptr);
+  }
+
+  bool stopRequested() {
+    std::lock_guard lock(mu);
+    return stopping;
+  }
+
+  void setRole(const std::string& newRole) {
+    if (role == newRole) return;
+    role = newRole;
+    kernel.set("config.configurator", role);
+  }
+
+  void run() {
+    events.record("started", "configurator on PEIS " + std::to_string(kernel.id()) + " '" +
+                                 kernel.name() + "', grace " +
+                                 std::to_string(options.grace.count()) + " ms, margin " +
+                                 fixed(100 * options.switchMargin, 0) + " %");
+    // Let the ecology's tuples arrive before the first plan.
+    const auto until = Clock::now() + options.startupWait;
+    while (!stopRequested() && Clock::now() < until) {
+      if (introspector.waitSettled(milliseconds(100))) break;
+    }
+    while (!stopRequested()) {
+      try {
+        step();
+      } catch (const std::exception& e) {
+        events.record("error", std::string("the configurator's step failed: ") + e.what());
+      }
+      std::unique_lock lock(mu);
+      const auto next = std::min(nextCheck(), Clock::now() + kLookAgainAtLeast);
+      wake.wait_until(lock, next, [this] { return woken || stopping; });
+      woken = false;
+    }
+  }
+
+  Clock::time_point nextCheck() const {
+    auto next = Clock::now() + kLookAgainAtLeast;
+    auto consider = [&](std::optional<Clock::time_point> at) {
+      if (at && *at < next) next = *at;
+    };
+    consider(monitor.nextCheck());
+    consider(failed.nextCheck());
+    if (driftSince) consider(*driftSince + options.driftHold);
+    if (publishedVersion != introspector.version()) consider(lastPublish + kPublishEvery);
+    return next;
+  }
+
+  // --- one look at the ecology ---------------------------------------------------
+  void step() {
+    const auto version = introspector.version();
+    const LiveModel live = introspector.snapshot();
+    const auto now = Clock::now();
+    publishModel(live, version, now);
+    if (!electActive(live)) return;
+
+    const auto sources = goalSources(live);
+    const auto sourcesText = describeSources(sources);
+    const Model model = live.toModel(options.costs, options.overrides);
+    const bool modelChanged = !haveModel || !(model == lastModel);
+    updatePlanner(model);
+
+    std::string reason;
+    bool mustSwitch = false;
+    if (sourcesText != deployedSources || (!deployed && !sources.empty())) {
+      reason = "goals";
+      mustSwitch = true;
+    }
+    // Failures of what is deployed.
+    std::vector<Failure> seen = monitor.observe(live, now);
+    for (const auto& f : seen) {
+      events.record("failure", f.instance.toString() + ": " + f.cause);
+      failed.add(f, now);
+      if (reason.empty()) reason = "repair";
+      mustSwitch = true;
+    }
+    for (const auto& f : failed.recovered(live, now)) {
+      events.record("recovered", f.instance.toString() + " can be used again (" +
+                                     toString(f.kind) + " cleared)");
+      if (reason.empty()) reason = "recovered";
+    }
+    applyFailures();
+    if (reason.empty() && modelChanged && (deployed || !sources.empty())) reason = "ecology changed";
+    if (!reason.empty()) {
+      planAndDeploy(sources, sourcesText, model, live, reason, mustSwitch);
+    } else {
+      correctDrift(live, now);
+    }
+  }
+
+  bool electActive(const LiveModel& live) {
+    const auto* me = live.find(kernel.id());
+    bool older = false;  // is another alive configurator older than this one?
+    for (const auto& p : live.peis) {
+      if (!p.alive || !p.configurator || p.id == kernel.id()) continue;
+      if (!me || std::tie(p.incarnation, p.id) < std::tie(me->incarnation, me->id)) older = true;
+    }
+    const bool nowActive = me && !older;
+    if (nowActive != active) {
+      active = nowActive;
+      setRole(active ? "active" : "standby");
+      events.record(active ? "active" : "standby",
+                    active ? "this configurator deploys (no older one is alive)"
+                           : "an older configurator is alive: standing by");
+      if (!active) {
+        monitor.clear();
+        deployed.reset();
+        deployedSources.clear();
+      }
+    }
+    return active;
+  }
+
+  std::vector<GoalSource> goalSources(const LiveModel& live) const {
+    std::vector<GoalSource> sources;
+    for (const auto& p : live.peis) {
+      if (!p.alive) continue;  // a poster that is gone has withdrawn its goals
+      for (const auto& [key, text] : p.goals) {
+        if (text.find_first_not_of(" \t\r\n") == std::string::npos) continue;
+        GoalSource s{p.id, p.name, key, 0, text};
+        if (const auto t = kernel.get(p.id, key)) s.seqno = t->seqno;
+        sources.push_back(std::move(s));
+      }
+    }
+    return sources;
+  }
+
+  static std::string describeSources(const std::vector<GoalSource>& sources) {
+    std::string text;
+    for (const auto& s : sources) text += std::to_string(s.owner) + "." + s.key + "=" + s.text + "\n";
+    return text;
+  }
+
+  void updatePlanner(const Model& model) {
+    auto shape = withEveryPeisAlive(model);
+    if (!planner || !(shape == plannerShape)) {
+      planner.emplace(shape);
+      plannerShape = std::move(shape);
+      appliedFailed.clear();
+    }
+    for (const auto& p : model.peis) planner->setAlive(p.name, p.alive);
+    lastModel = model;
+    haveModel = true;
+  }
+
+  void applyFailures() {
+    std::set<std::string> now;
+    for (const auto& s : failed.selectors()) {
+      now.insert(s.toString());
+      if (!appliedFailed.count(s.toString())) planner->setFailed(s, true);
+    }
+    for (const auto& text : appliedFailed) {
+      if (now.count(text)) continue;
+      if (auto s = InstanceSelector::parse(text, nullptr)) planner->setFailed(*s, false);
+    }
+    appliedFailed = std::move(now);
+  }
+
+  // --- planning ---------------------------------------------------------------------
+  PlanResult planGoals(const Goals& goals, bool quick) const {
+    PlanOptions po;
+    po.timeLimit = options.planTimeLimit;
+    po.firstSolutionOnly = quick;
+    if (deployed && deployed->ok()) po.warmStart = &deployed->configuration;
+    return planner->plan(goals, po);
+  }
+
+  Planned plan(const std::vector<GoalSource>& sources) {
+    Planned planned;
+    std::vector<std::pair<const GoalSource*, Goals>> usable;
+    for (const auto& s : sources) {
+      auto parsed = parseGoalTuple(s.text, s.origin());
+      if (!parsed.problems.empty()) {
+        planned.status.push_back(
+            {s.owner, s.key, s.seqno, GoalState::Refused, parsed.problems.front()});
+        events.record("pending", s.origin() + " refused: " + parsed.problems.front());
+        continue;
+      }
+      if (!parsed.goals.empty() || !parsed.goals.constraints.avoidPeis.empty())
+        usable.emplace_back(&s, std::move(parsed.goals));
+    }
+    auto drop = [&](std::size_t i, GoalState state, const std::string& why) {
+      planned.status.push_back(
+          {usable[i].first->owner, usable[i].first->key, usable[i].first->seqno, state, why});
+      events.record("pending", usable[i].first->origin() + " " + toString(state) + ": " + why);
+      usable.erase(usable.begin() + static_cast<long>(i));
+    };
+    while (true) {
+      Goals all;
+      for (const auto& [s, g] : usable) mergeGoals(all, g);
+      planned.goals = all.information.size() + all.run.size();
+      if (all.empty()) {
+        planned.ok = true;
+        planned.result.status = PlanStatus::Optimal;
+        return planned;
+      }
+      try {
+        planned.result = planGoals(all, false);
+      } catch (const Error& e) {
+        // A goal that names what the model does not have (yet): which tuple?
+        bool dropped = false;
+        for (std::size_t i = usable.size(); i-- > 0;) {
+          try {
+            planGoals(usable[i].second, true);
+          } catch (const Error& alone) {
+            drop(i, GoalState::Pending, alone.what());
+            dropped = true;
+          }
+        }
+        if (!dropped) {
+          planned.failure = e.what();
+          for (std::size_t i = usable.size(); i-- > 0;) drop(i, GoalState::Pending, e.what());
+        }
+        continue;
+      }
+      if (planned.result.ok()) break;
+      const auto why = planned.result.explanation.empty()
+                           ? std::string("no configuration found in time")
+                           : planned.result.explanation.front();
+      // Which goal tuples cannot be met on their own?
+      bool dropped = false;
+      for (std::size_t i = usable.size(); i-- > 0 && usable.size() > 1;) {
+        const auto alone = planGoals(usable[i].second, false);
+        if (alone.status == PlanStatus::Infeasible) {
+          drop(i, GoalState::Infeasible,
+               alone.explanation.empty() ? why : alone.explanation.front());
+          dropped = true;
+        }
+      }
+      if (!dropped) {
+        planned.failure = "no configuration: " + joined(planned.result.explanation, "; ");
+        for (std::size_t i = usable.size(); i-- > 0;) drop(i, GoalState::Infeasible, why);
+        return planned;
+      }
+    }
+    planned.ok = true;
+    for (const auto& [s, g] : usable)
+      planned.status.push_back({s->owner, s->key, s->seqno, GoalState::Deployed, ""});
+    return planned;
+  }
+
+  void planAndDeploy(const std::vector<GoalSource>& sources, const std::string& sourcesText,
+                     const Model& model, const LiveModel& live, const std::string& reason,
+                     bool mustSwitch) {
+    if (reason == "goals") {
+      events.record("goals", std::to_string(sources.size()) + " goal tuple(s)" +
+                                 (sources.empty() ? std::string() : ": " + sourceList(sources)));
+    }
+    if (sources.empty() && !hadGoals) {
+      // Nothing asked for yet: leave the ecology as it is.
+      deployedSources = sourcesText;
+      publishStatus({});
+      return;
+    }
+    LiveModel current = live;
+    for (int attempt = 0; attempt < 3; ++attempt) {
+      const auto started = Clock::now();
+      Planned planned = plan(sources);
+      const double planMs = msSince(started);
+      if (!planned.ok) {
+        events.record("gave-up", planned.failure + " (" + reason + ")");
+        publishStatus(planned.status);
+        deployedSources = sourcesText;
+        return;
+      }
+      const auto& config = planned.result.configuration;
+      events.record("replanned", reason + ": cost " + fixed(config.cost) + " (" +
+                                     toString(planned.result.status) + "), " +
+                                     std::to_string(config.instances.size()) + " functionalities, " +
+                                     std::to_string(config.links.size()) + " links, in " +
+                                     fixed(planMs) + " ms" + avoiding());
+      if (!mustSwitch && deployed && deployed->ok() &&
+          !worthSwitching(deployed->configuration.cost, config.cost, options.switchMargin)) {
+        if (!(config == deployed->configuration))
+          events.record("kept", "cost " + fixed(config.cost) + " is not " +
+                                    fixed(100 * options.switchMargin, 0) +
+                                    " % below the deployed " +
+                                    fixed(deployed->configuration.cost) + ": no switch");
+        deployedSources = sourcesText;
+        return;
+      }
+      const auto result = deployer.deploy(config, current);
+      if (result.ok) {
+        if (!result.unchanged)
+          events.record("deployed", "generation " + std::to_string(result.generation) + ": " +
+                                        std::to_string(result.writes) + " writes on " +
+                                        std::to_string(result.peisTouched) + " PEIS in " +
+                                        fixed(result.milliseconds) + " ms");
+        deployed = planned.result;
+        deployedSources = sourcesText;
+        hadGoals = !sources.empty();
+        monitor.deployed(config, model, Clock::now());
+        driftSince.reset();
+        publishStatus(planned.status);
+        publishDeployed(result.generation, sources);
+        return;
+      }
+      events.record("deploy-failed", result.error);
+      if (result.failedPeis == 0) break;
+      // Ask again without the PEIS that did not take the writes.
+      Failure refused{FailureKind::StaleInput, {}, result.failedPeis, 0,
+                      "did not accept the deployment: " + result.error};
+      refused.instance.peis = result.failedPeisName.empty() ? std::to_string(result.failedPeis)
+                                                            : result.failedPeisName;
+      if (const auto* p = live.find(result.failedPeis)) refused.incarnation = p->incarnation;
+      failed.add(refused, Clock::now());
+      applyFailures();
+      current = introspector.snapshot();
+      mustSwitch = true;
+    }
+    deployedSources.clear();  // not deployed: try again at the next look
+  }
+
+  std::string avoiding() const {
+    const auto selectors = failed.selectors();
+    if (selectors.empty()) return "";
+    std::vector<std::string> names;
+    for (const auto& s : selectors) names.push_back(s.toString());
+    return ", avoiding " + joined(names, ", ");
+  }
+
+  static std::string sourceList(const std::vector<GoalSource>& sources) {
+    std::vector<std::string> parts;
+    for (const auto& s : sources) {
+      std::string goals;
+      for (char c : s.text) goals += c == '\n' ? ' ' : c;
+      while (!goals.empty() && goals.back() == ' ') goals.pop_back();
+      parts.push_back(s.origin() + " [" + goals + "]");
+    }
+    return joined(parts, ", ");
+  }
+
+  void correctDrift(const LiveModel& live, Clock::time_point now) {
+    if (!deployed || !monitor.active()) return;
+    const auto changes = deployer.pendingChanges(deployed->configuration, live);
+    if (changes.empty()) {
+      driftSince.reset();
+      return;
+    }
+    if (!driftSince) driftSince = now;
+    if (now - *driftSince < options.driftHold) return;
+    std::size_t writes = 0;
+    for (const auto& c : changes) writes += c.writes.size();
+    events.record("drift", std::to_string(writes) + " deployed tuple(s) differ from generation's " +
+                               "values (changed by another writer, or a PEIS restarted): putting "
+                               "them back");
+    const auto result = deployer.deploy(deployed->configuration, live);
+    if (result.ok) {
+      if (!result.unchanged)
+        events.record("deployed", "generation " + std::to_string(result.generation) + ": " +
+                                      std::to_string(result.writes) + " writes on " +
+                                      std::to_string(result.peisTouched) + " PEIS in " +
+                                      fixed(result.milliseconds) + " ms");
+    } else {
+      events.record("deploy-failed", result.error);
+    }
+    driftSince.reset();
+  }
+
+  // --- published tuples -------------------------------------------------------------
+  void publishModel(const LiveModel& live, std::uint64_t version, Clock::time_point now) {
+    if (version == publishedVersion || now - lastPublish < kPublishEvery) return;
+    publishedVersion = version;
+    lastPublish = now;
+    WriteOptions yamlOptions;
+    yamlOptions.mimetype = "application/yaml";
+    kernel.set("model.live", live.toYaml(), yamlOptions);
+    kernel.set("model.yaml", live.toModel(options.costs, options.overrides).toYaml(), yamlOptions);
+  }
+
+  void publishStatus(const std::vector<GoalStatusLine>& lines) {
+    auto sorted = lines;
+    std::sort(sorted.begin(), sorted.end(), [](const auto& a, const auto& b) {
+      return std::tie(a.owner, a.key) < std::tie(b.owner, b.key);
+    });
+    const auto text = formatGoalStatus(sorted);
+    if (text == publishedStatus) return;
+    publishedStatus = text;
+    kernel.set(std::string(kGoalStatusKey), text);
+  }
+
+  void publishDeployed(std::uint64_t generation, const std::vector<GoalSource>& sources) {
+    std::string text = "generation " + std::to_string(generation) + "\n";
+    for (const auto& s : sources) {
+      for (const auto& line : parseGoalTuple(s.text, s.origin()).goals.information)
+        text += "goal " + line.toString() + "  (" + line.origin + ")\n";
+    }
+    text += formatText(*deployed);
+    kernel.set("config.deployed", text);
+  }
+};
+
+Configurator::Configurator(Kernel& kernel, ConfiguratorOptions options)
+    : impl_(std::make_unique<Impl>(kernel, std::move(options))) {
+  impl_->start();
+}
+
+Configurator::~Configurator() { impl_->stop(); }
+
+}  // namespace peis::meta
