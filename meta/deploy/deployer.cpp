@@ -248,29 +248,45 @@ DeployResult Deployer::deploy(const Configuration& configuration, const LiveMode
     return finish(result);
   };
   // 1. Intent: every key this deployment may write is in the records first.
+  std::map<int, std::string> previousRecords;  // to put back if the deployment fails
   {
     Batch intent(kernel_);
     for (const auto& c : changes) {
       std::set<std::string> keys = c.ownedBefore;
       keys.insert(c.ownedAfter.begin(), c.ownedAfter.end());
       if (keys == c.ownedBefore) continue;
+      previousRecords[c.peis] = currentValue(c.peis, kOwnedKey).value_or("");
       intent.set(c.peis, kOwnedKey,
                  OwnedRecord{result.generation, kernel_.id(), keys}.format(), false);
     }
     const auto results = intent.wait();
     if (const auto* r = failed(results)) return fail(*r, "the configuration record");
   }
-  // 2. The writes, all at once.
+  // 2. The writes, all at once. A key of the new configuration that is not
+  // taken fails the deployment; a key only switched off that is not taken
+  // (its PEIS refuses) is given up with a warning, so one such PEIS cannot
+  // block every later configuration.
   Batch writes(kernel_);
   std::vector<TupleWrite> sent;
+  std::vector<bool> wanted;
   for (const auto& c : changes) {
     for (const auto& w : c.writes) {
       writes.set(w.peis, w.key, w.value, isMetaKey(w.key));
       sent.push_back(w);
+      wanted.push_back(c.ownedAfter.count(w.key) > 0);
     }
   }
   const auto writeResults = writes.wait();
-  if (const auto* r = failed(writeResults)) {
+  for (std::size_t i = 0; i < sent.size(); ++i) {
+    if (!writeResults[i].error || wanted[i]) continue;
+    result.warnings.push_back(describePeis(sent[i].peis, nameOf(sent[i].peis)) +
+                              " did not switch off " + sent[i].key + ": " +
+                              *writeResults[i].error);
+  }
+  const Batch::Result* refused = nullptr;
+  for (std::size_t i = 0; i < sent.size() && !refused; ++i)
+    if (writeResults[i].error && wanted[i]) refused = &writeResults[i];
+  if (refused) {
     // Undo what did go through, so the ecology keeps the configuration it had.
     Batch undo(kernel_);
     for (std::size_t i = 0; i < sent.size(); ++i) {
@@ -278,8 +294,9 @@ DeployResult Deployer::deploy(const Configuration& configuration, const LiveMode
       undo.set(sent[i].peis, sent[i].key, sent[i].previous.value_or(switchedOffValue(sent[i].key)),
                isMetaKey(sent[i].key));
     }
+    for (const auto& [peis, text] : previousRecords) undo.set(peis, kOwnedKey, text, false);
     undo.wait();
-    return fail(*r, "the write");
+    return fail(*refused, "the write");
   }
   result.writes = sent.size();
   // 3. The records name what this configuration wrote, and only that.

@@ -15,9 +15,12 @@
 //      key it may have written), then all writes go out in parallel, then
 //      the record becomes the new keys alone, and the locks are released
 //      (`done`, compare-and-set).
-//   3. A write refused or not answered (the PEIS is dead, refuses, times
-//      out) undoes the writes that succeeded, releases the locks and fails
-//      naming the PEIS, so no half configuration is left.
+//   3. A write of the new configuration refused or not answered (the PEIS
+//      is dead, refuses, times out) undoes the writes that succeeded and
+//      the records, releases the locks and fails naming the PEIS, so no half
+//      configuration is left. A PEIS that does not take a switch-off (a key
+//      only the old configuration wanted) is left as it is, with a warning:
+//      one such PEIS cannot block every later configuration.
 //
 // Blocking: call it from a thread of its own, never the kernel thread. The
 // cache it reads (locks, records, current values) is kept by an
@@ -48,6 +51,7 @@ struct DeployResult {
   std::size_t writes = 0;        // tuples written (switching off included)
   std::size_t peisTouched = 0;
   std::string error;             // when !ok: what failed, naming the PEIS
+  std::vector<std::string> warnings;  // switch-offs a PEIS did not take (given up)
   int failedPeis = 0;            // the PEIS that refused or did not answer (0: none)
   std::string failedPeisName;
   double milliseconds = 0;

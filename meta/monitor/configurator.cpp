@@ -419,6 +419,7 @@ struct Configurator::Impl {
         return;
       }
       const auto result = deployer.deploy(config, current);
+      for (const auto& w : result.warnings) events.record("warning", w);
       if (result.ok) {
         if (!result.unchanged)
           events.record("deployed", "generation " + std::to_string(result.generation) + ": " +
@@ -484,6 +485,7 @@ struct Configurator::Impl {
                                "values (changed by another writer, or a PEIS restarted): putting "
                                "them back");
     const auto result = deployer.deploy(deployed->configuration, live);
+    for (const auto& w : result.warnings) events.record("warning", w);
     if (result.ok) {
       if (!result.unchanged)
         events.record("deployed", "generation " + std::to_string(result.generation) + ": " +

@@ -272,6 +272,7 @@ int apply(const std::vector<std::string>& args) {
     return 0;
   }
   const auto deployed = deployer.deploy(result.configuration, session.live);
+  for (const auto& w : deployed.warnings) std::cout << "warning: " << w << "\n";
   if (!deployed.ok) {
     std::cout << "deployment failed: " << deployed.error << "\n";
     return 1;

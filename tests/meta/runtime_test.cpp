@@ -197,7 +197,7 @@ TEST_CASE("the deployment diff writes only what changes and switches off what is
   for (const auto& c : diffDeployment(next, owned, current, canonical)) CHECK(c.peis != 4);
 }
 
-TEST_CASE("the records of a deployment read back, also from bad text", "[unit][meta-runtime]") {
+TEST_CASE("the records of a deployment read back also from bad text", "[unit][meta-runtime]") {
   OwnedRecord record{12, 4711, {"mi-a", "x.reqState"}};
   CHECK(record.format() == "12 4711\nmi-a\nx.reqState\n");
   CHECK(OwnedRecord::parse(record.format()) == record);
@@ -219,7 +219,7 @@ TEST_CASE("the records of a deployment read back, also from bad text", "[unit][m
   CHECK(lineCount("") == 0);
 }
 
-TEST_CASE("goal tuples: one goal per line, bad lines named by tuple and line",
+TEST_CASE("goal tuples: one goal per line and bad lines named by tuple and line",
           "[unit][meta-runtime]") {
   const auto parsed = parseGoalTuple(
       "position(pippi)@Pippi.mi-position\n\n# a comment\nrun:vac/cleaner/clean\navoid:cam2\n"
@@ -249,7 +249,7 @@ TEST_CASE("goal tuples: one goal per line, bad lines named by tuple and line",
             .size() == 2);
 }
 
-TEST_CASE("the monitor blames a dead PEIS, an error, a precondition lost, at once",
+TEST_CASE("the monitor blames a dead PEIS or an error or a lost precondition at once",
           "[unit][meta-runtime]") {
   auto live = home();
   const auto result = planHome(live);
@@ -327,7 +327,7 @@ TEST_CASE("a stale input blames its producer only after the grace period",
   CHECK(monitor.observe(elsewhere, t0 + 9s).empty());
 }
 
-TEST_CASE("failed parts come back after a hold; a silent producer is retried with back-off",
+TEST_CASE("failed parts come back after a hold and a silent producer is retried with back-off",
           "[unit][meta-runtime]") {
   auto live = home();
   FailedParts parts(1000ms, 30s);
@@ -371,7 +371,7 @@ TEST_CASE("failed parts come back after a hold; a silent producer is retried wit
   CHECK_FALSE(worthSwitching(10, 10, 0));
 }
 
-TEST_CASE("after a failure, the planner avoids the failed instance", "[unit][meta-runtime]") {
+TEST_CASE("after a failure the planner avoids the failed instance", "[unit][meta-runtime]") {
   const auto live = home();
   const auto before = planHome(live);
   REQUIRE(before.configuration.cost == Approx(1 + 2 + 1 + 1));  // camera, tracker, two lan links
@@ -384,7 +384,7 @@ TEST_CASE("after a failure, the planner avoids the failed instance", "[unit][met
   CHECK(producers[0].functionality == "track");
 }
 
-TEST_CASE("event tuples: keys in order, text for a person", "[unit][meta-runtime]") {
+TEST_CASE("event tuples: keys in order and text for a person", "[unit][meta-runtime]") {
   CHECK(eventKey(42) == "config.event.0000000042");
   CHECK(eventNumber("config.event.0000000042") == 42u);
   CHECK_FALSE(eventNumber("config.event.x"));
