@@ -95,8 +95,9 @@ RegistrySeed parseRegistrySeed(const std::string& yamlText, const std::string& o
   if (!root.IsMap()) fail(origin, root, "the seed must be a mapping with 'keys' and 'nodes'");
   for (const auto& item : root) {
     const auto section = item.first.as<std::string>();
+    if (section == "descriptors") continue;  // the nodes' descriptors (node_descriptors.h)
     if (section != "keys" && section != "nodes")
-      fail(origin, item.first, "unknown key '" + section + "' (known: keys, nodes)");
+      fail(origin, item.first, "unknown key '" + section + "' (known: descriptors, keys, nodes)");
     if (item.second.IsNull()) continue;
     if (!item.second.IsMap()) fail(origin, item.second, "'" + section + "' must be a mapping");
   }

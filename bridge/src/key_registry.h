@@ -23,7 +23,8 @@ namespace peis::bridge {
 
 using KeyIndex = std::uint16_t;
 
-// The seed file: key names with their indexes, and names for tiny nodes.
+// The seed file: key names with their indexes, and names for tiny nodes
+// (and the nodes' functionality descriptors, read by node_descriptors.h).
 //   keys:
 //     LightValue: 42
 //   nodes:

@@ -17,6 +17,8 @@
 
 #include "key_mapping.h"
 #include "key_registry.h"
+#include "node_descriptors.h"
+#include "peis/component.h"
 #include "peis/error.h"
 #include "peis/key.h"
 #include "peis/log.h"
@@ -73,6 +75,7 @@ struct TinyBridge::Impl {
   BridgeConfig config;
   KeyRegistry registry;
   RegistrySeed seed;
+  NodeDescriptors descriptors;
   std::unique_ptr<RadioLink> link;
   Kernel kernel;
   Clock::time_point started = Clock::now();
@@ -87,6 +90,8 @@ struct TinyBridge::Impl {
   struct Node {
     std::uint16_t id = 0;
     std::unique_ptr<Kernel> proxy;
+    // The node's descriptor published on its proxy (destroyed before the proxy).
+    std::unique_ptr<Component> component;
     Clock::time_point lastHeard, lastSubscribe;
     std::uint32_t uptimeMs = 0;
     std::map<std::vector<std::uint16_t>, std::uint32_t> mirroredSeqno;  // by tiny key
@@ -141,6 +146,8 @@ struct TinyBridge::Impl {
       : config(std::move(c)),
         registry(config.registryPath),
         seed(config.seedPath.empty() ? RegistrySeed{} : loadRegistrySeed(config.seedPath)),
+        descriptors(config.seedPath.empty() ? NodeDescriptors{}
+                                            : loadNodeDescriptors(config.seedPath)),
         link((registry.applySeed(seed), openRadioLink(config.link))),
         kernel(bridgeOptions(config)) {
     if (config.tinyId == TINY_ID_NONE || config.tinyId == TINY_ID_BROADCAST)
@@ -255,6 +262,7 @@ struct TinyBridge::Impl {
       }
       node.proxy->set("tiny.bridge", std::to_string(kernel.id()));
       node.proxy->set("tiny.link", link->describe());
+      if (auto d = descriptors.find(id); d != descriptors.end()) publishDescriptor(node, d->second);
       node.proxy->setWriteGate(
           [this, id](const Tuple& t, PeisId writer, const WriteDecision& decide) {
             if (t.key.rfind("kernel.", 0) == 0) return false;  // the proxy's own
@@ -274,6 +282,30 @@ struct TinyBridge::Impl {
     }
     it->second.lastHeard = now;
     return &it->second;
+  }
+
+  // The node's functionality descriptor, as a component publishes it, so
+  // the meta-level can plan with the node (status `running` while it is heard).
+  void publishDescriptor(Node& node, const Descriptor& descriptor) {
+    try {
+      node.component = std::make_unique<Component>(*node.proxy, descriptor.component, descriptor);
+      for (const auto& f : descriptor.functionalities) {
+        for (const auto& port : f.outputs) {
+          const auto key = port.outputKey();
+          if (key.find('?') == std::string::npos && !keyProblem(key)) {
+            try {
+              node.component->output(key);
+            } catch (const Error&) {
+              // declared by another functionality already
+            }
+          }
+        }
+      }
+      node.component->start();
+    } catch (const Error& e) {
+      log::warn(kernel.id(), "tinybridge: the descriptor of tiny node " + std::to_string(node.id) +
+                                 " was not published: " + e.what());
+    }
   }
 
   void dropNode(std::uint16_t id, const std::string& why) {

@@ -1,6 +1,7 @@
 // Unit tests of the tinybridge's key registry and its YAML seed
 // (bridge/src/key_registry.h).
 #include "key_registry.h"
+#include "node_descriptors.h"
 
 #include <sqlite3.h>
 
@@ -111,6 +112,36 @@ TEST_CASE("the repository's bridge/keys.yaml parses with the documented indexes"
   CHECK(registry.find("LightValue") == KeyIndex{42});
   CHECK(registry.nameOf(43) == "TiltValue");
   CHECK(registry.entries().size() == seed.keys.size());
+}
+
+TEST_CASE("the seed's node descriptors read inline or from a file with file:line errors",
+          "[unit][bridge][registry]") {
+  const auto repository =
+      peis::bridge::loadNodeDescriptors(std::string(PEIS_SOURCE_DIR) + "/bridge/keys.yaml");
+  REQUIRE(repository.count(5) == 1);
+  CHECK(repository.at(5).functionalities.at(0).outputs.at(0).key == "Weight");
+  TempDir dir;
+  dir.write("scale.yaml", "component: scale\nfunctionalities:\n  - {name: weigh, outputs: "
+                          "[{name: w, type: weight, key: Weight}]}\n");
+  const auto fromFile = peis::bridge::loadNodeDescriptors(
+      dir.write("seed.yaml", "keys:\n  Weight: 44\ndescriptors:\n  5: scale.yaml\n"));
+  CHECK(fromFile.at(5).component == "scale");
+  auto failure = [](const std::string& text) {
+    try {
+      peis::bridge::parseNodeDescriptors(text, "s.yaml");
+    } catch (const peis::Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  CHECK_THAT(failure("descriptors:\n  x: {component: a}\n"),
+             StartsWith("s.yaml:2:") && Contains("1..65534"));
+  CHECK_THAT(failure("descriptors:\n  3:\n    component: a\n    bogus: 1\n"),
+             StartsWith("s.yaml:4:") && Contains("unknown key 'bogus'"));
+  CHECK_THAT(failure("descriptors:\n  3: missing.yaml\n"),
+             StartsWith("s.yaml:2:") && Contains("in the descriptor"));
+  CHECK_THAT(failure("descriptors: [a]\n"), Contains("must be a mapping"));
+  CHECK(peis::bridge::parseNodeDescriptors("keys:\n  A: 1\n", "s.yaml").empty());
 }
 
 TEST_CASE("parseRegistrySeed reads keys in file order and node names", "[unit][bridge][registry]") {

@@ -28,6 +28,8 @@ using peis::test::Process;
 using peis::test::uniqueEcology;
 using peis::test::waitFor;
 
+using Catch::Matchers::Contains;
+
 namespace {
 
 constexpr auto kDeadline = std::chrono::milliseconds(20s);
@@ -276,6 +278,32 @@ TEST_CASE("the seed's experiment through the tinybridge, byte for byte on the ra
   CHECK(eco.cli({"get", "3.Humidity", "--wait", "15"}).out == "12\n");
   auto index = eco.cli({"get", "tinybridge.tinybridge.keys.Humidity", "--wait", "15"});
   CHECK(index.out == "47\n");  // above BlindPosition = 46, the highest seeded
+}
+
+TEST_CASE("tiny nodes publish their descriptors from the seed and the meta-level plans with them",
+          "[integration]") {
+  Ecology eco;
+  auto bridge = eco.bridge();
+  auto consumer = eco.fullPeis("6890");
+  auto plant = eco.node("plant", {{"TINY_LIGHT", "900"}});
+  auto parcel = eco.node("parcel");
+  auto state = [&] { return bridge->describe() + "\n" + plant->describe(); };
+  // The proxies publish the nodes' descriptors as components do.
+  const auto descriptor = eco.cli({"get", "plant.component.descriptor", "--wait", "15"});
+  INFO(state());
+  REQUIRE(descriptor.status == 0);
+  CHECK_THAT(descriptor.out, Contains("shade-request") && Contains("key: TiltValue"));
+  CHECK(eco.cli({"get", "plant.status", "--wait", "15"}).out == "running\n");
+  CHECK_THAT(eco.cli({"get", "parcel.functionality.weighing.outputs", "--wait", "15"}).out,
+             Contains("weight:weight(?self)@Weight"));
+  // Planned on the live ecology: the plant's output reaches a full PEIS over a radio link.
+  Process plan({PEIS_CONFIG_PATH, "plan", "shade-request(plant)@6890.mi-shade", "--wait", "10",
+                "--peis-ecology", eco.name},
+               eco.env());
+  REQUIRE(plan.wait(60s).has_value());
+  INFO(plan.describe());
+  CHECK_THAT(plan.out(), Contains("cost 4.500 (optimal)") && Contains("plant/plant/shade-request") &&
+                             Contains("<- plant.TiltValue  shade-request(plant), radio 4.000"));
 }
 
 TEST_CASE("a write to a tiny node that went silent fails, and the node leaves the ecology",

@@ -6,6 +6,7 @@
 #include <filesystem>
 
 #include "home_support.h"
+#include "peis/component.h"
 #include "support/temp_dir.h"
 
 using peis::test::Home;
@@ -89,7 +90,7 @@ TEST_CASE("the executor refuses a malformed plan and bad options", "[integration
   CHECK(help.out().find("Usage: peis-executor") != std::string::npos);
 }
 
-TEST_CASE("with goal tuples, the executor posts a step's needs and waits for their deployment",
+TEST_CASE("with goal tuples, the executor posts a step's needs and the configurator deploys them",
           "[integration]") {
   Home home("exec-goals");
   home.start(programPath("peis-sim-world"), {"--speed", "2"});
@@ -115,15 +116,34 @@ TEST_CASE("with goal tuples, the executor posts a step's needs and waits for the
   const auto waiting = home.observer->get(planner, "plan.status");
   REQUIRE(waiting);
   CHECK(waiting->data.rfind("running deploying", 0) == 0);
-  // Stand in for the configurator's deployment: point the meta tuple.
-  home.observer->set("position.Pippi", "5.0 4.0");
-  home.observer->setMeta(pippi, "mi-position", home.observer->id(), "position.Pippi");
+  // The configurator deploys it: the observer offers Pippi's position.
+  peis::Component tracker(*home.observer, "tracker",
+                          peis::Descriptor::fromFile(std::string(PEIS_SOURCE_DIR) +
+                                                     "/tests/meta/descriptors/pippi-tracker.yaml"));
+  tracker.output("position.Pippi");
+  tracker.start();
+  tracker.write("position.Pippi", "5.0 4.0");
+  home.start(programPath("peis-configurator"), {"--peis-name", "configurator"});
+  home.observer->subscribe(peis::Pattern("mi-position", pippi));
+  CHECK(waitFor(
+      [&] {
+        const auto meta = home.observer->get(pippi, "mi-position");
+        return meta && meta->data == std::to_string(home.observer->id()) + ".position.Pippi";
+      },
+      60s));
   const auto exit = executor.wait(120s);
-  INFO(executor.describe());
+  INFO(executor.describe() << home.describeAll());
   REQUIRE(exit == 0);
-  // Withdrawn after the plan.
+  // Withdrawn after the plan: the goal tuple is empty, and the configurator
+  // takes the link away.
   CHECK(waitFor([&] {
     const auto goal = home.observer->get(planner, "config.goal.planner");
     return goal && goal->data.empty();
   }));
+  CHECK(waitFor(
+      [&] {
+        const auto meta = home.observer->get(pippi, "mi-position");
+        return meta && meta->data.empty();
+      },
+      60s));
 }

@@ -28,6 +28,7 @@ inline std::string programPath(const std::string& name) {
   if (name == "peis-photo-camera") return PEIS_PHOTO_CAMERA_PATH;
   if (name == "peis-vacuum") return PEIS_VACUUM_PATH;
   if (name == "peis-sim-sensors") return PEIS_SIM_SENSORS_PATH;
+  if (name == "peis-configurator") return PEIS_CONFIGURATOR_PATH;
   return name;
 }
 
