@@ -30,6 +30,8 @@ Options:
   --plan-time-ms N     time limit of one planning call (default 200)
   --retry-after-ms N   first retry of a functionality that did not deliver
                        (default 30000; doubles each time it fails again)
+  --recover-hold-ms N  a failed part must look healthy this long before it is
+                       used again (default: twice the grace period)
   --costs FILE         a model file whose link-costs and link-overrides apply
   --write-timeout-ms N deadline of one deployment write (default 2000)
   --lock-wait-ms N     how long to wait for a deployment lock that another
@@ -77,6 +79,8 @@ int main(int argc, char** argv) {
         options.switchMargin = margin;
       } else if (a == "--plan-time-ms") {
         options.planTimeLimit = std::chrono::milliseconds(number(a, v, 1, 600000));
+      } else if (a == "--recover-hold-ms") {
+        options.recoverHold = std::chrono::milliseconds(number(a, v, 1, 3600000));
       } else if (a == "--retry-after-ms") {
         options.retryAfter = std::chrono::milliseconds(number(a, v, 1, 86400000));
       } else if (a == "--write-timeout-ms") {
