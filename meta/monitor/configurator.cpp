@@ -89,6 +89,7 @@ struct Configurator::Impl {
   bool hadGoals = false;
   std::optional<Clock::time_point> driftSince;
   std::string publishedStatus;
+  std::vector<GoalStatusLine> statusLines;  // the answers published last
 
   bool active = false;
   std::string role;
@@ -223,6 +224,7 @@ struct Configurator::Impl {
     if (!reason.empty()) {
       planAndDeploy(sources, sourcesText, model, live, reason, mustSwitch);
     } else {
+      refreshStatusSeqnos(sources);
       correctDrift(live, now);
     }
   }
@@ -242,9 +244,11 @@ struct Configurator::Impl {
                     active ? "this configurator deploys (no older one is alive)"
                            : "an older configurator is alive: standing by");
       if (!active) {
+        // The active one answers goal tuples now: no stale answers from here.
         monitor.clear();
         deployed.reset();
         deployedSources.clear();
+        publishStatus({});
       }
     }
     return active;
@@ -509,7 +513,25 @@ struct Configurator::Impl {
     kernel.set("model.yaml", live.toModel(options.costs, options.overrides).toYaml(), yamlOptions);
   }
 
+  // A goal tuple written again with the same goals (the executor posts a
+  // step's needs that the previous step had too) gets the same answer for
+  // its new seqno, without planning again.
+  void refreshStatusSeqnos(const std::vector<GoalSource>& sources) {
+    auto lines = statusLines;
+    bool changed = false;
+    for (auto& line : lines) {
+      for (const auto& s : sources) {
+        if (s.owner == line.owner && s.key == line.key && s.seqno != line.seqno) {
+          line.seqno = s.seqno;
+          changed = true;
+        }
+      }
+    }
+    if (changed) publishStatus(lines);
+  }
+
   void publishStatus(const std::vector<GoalStatusLine>& lines) {
+    statusLines = lines;
     auto sorted = lines;
     std::sort(sorted.begin(), sorted.end(), [](const auto& a, const auto& b) {
       return std::tie(a.owner, a.key) < std::tie(b.owner, b.key);

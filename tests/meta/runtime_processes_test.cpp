@@ -572,4 +572,19 @@ TEST_CASE("goal tuples: bad lines refused and unknown types pending - both named
   CHECK_THAT(status, Contains("config.goal.unknown 1 pending: ") &&
                          Contains("poster.config.goal.unknown:1") && Contains("weather"));
   CHECK_THAT(status, Contains("config.goal.good 1 deployed"));
+  // The same goals written again (as the executor does for a step that needs
+  // what the previous one had) get the same answer for the new seqno.
+  const auto link = eco.seqno(c1, "mi-position");
+  const auto dry = eco.config({"apply", "--dry-run", "position@c1.mi-position"});
+  CHECK(dry.status == 0);
+  CHECK_THAT(dry.out, Contains("nothing to change"));
+  peis::test::Process again({peis::test::peisCliPath(), "set", "poster.config.goal.good",
+                             "position@c1.mi-position", "--peis-ecology", eco.ecology},
+                            eco.environment());
+  REQUIRE(again.wait(30s) == 0);
+  REQUIRE_WAIT([&] {
+    return eco.value(cfg, "config.goal-status").find("config.goal.good 2 deployed") !=
+           std::string::npos;
+  }, 30s);
+  CHECK(eco.seqno(c1, "mi-position") == link);
 }
