@@ -9,15 +9,13 @@
 
 #include "peis/descriptor_yaml.h"
 #include "peis/error.h"
+#include "yaml_error.h"
 
 namespace peis::bridge {
 namespace {
 
 [[noreturn]] void fail(const std::string& origin, const YAML::Node& node, const std::string& why) {
-  std::string where = origin;
-  if (node.IsDefined() && node.Mark().line >= 0)
-    where += ":" + std::to_string(node.Mark().line + 1);
-  throw Error(ErrorCode::InvalidConfig, where + ": " + why);
+  failAt(origin, node, why);
 }
 
 }  // namespace

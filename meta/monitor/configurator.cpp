@@ -422,14 +422,8 @@ struct Configurator::Impl {
         deployedSources = sourcesText;
         return;
       }
-      const auto result = deployer.deploy(config, current);
-      for (const auto& w : result.warnings) events.record("warning", w);
+      const auto result = deploy(config, current);
       if (result.ok) {
-        if (!result.unchanged)
-          events.record("deployed", "generation " + std::to_string(result.generation) + ": " +
-                                        std::to_string(result.writes) + " writes on " +
-                                        std::to_string(result.peisTouched) + " PEIS in " +
-                                        fixed(result.milliseconds) + " ms");
         deployed = planned.result;
         deployedSources = sourcesText;
         hadGoals = !sources.empty();
@@ -439,7 +433,6 @@ struct Configurator::Impl {
         publishDeployed(result.generation, sources);
         return;
       }
-      events.record("deploy-failed", result.error);
       if (result.failedPeis == 0) break;
       // Ask again without the PEIS that did not take the writes.
       Failure refused{FailureKind::StaleInput, {}, result.failedPeis, 0,
@@ -453,6 +446,21 @@ struct Configurator::Impl {
       mustSwitch = true;
     }
     deployedSources.clear();  // not deployed: try again at the next look
+  }
+
+  // Deploys and records the outcome as events (deployed, deploy-failed, warnings).
+  DeployResult deploy(const Configuration& config, const LiveModel& live) {
+    const auto result = deployer.deploy(config, live);
+    for (const auto& w : result.warnings) events.record("warning", w);
+    if (!result.ok) {
+      events.record("deploy-failed", result.error);
+    } else if (!result.unchanged) {
+      events.record("deployed", "generation " + std::to_string(result.generation) + ": " +
+                                    std::to_string(result.writes) + " writes on " +
+                                    std::to_string(result.peisTouched) + " PEIS in " +
+                                    fixed(result.milliseconds) + " ms");
+    }
+    return result;
   }
 
   std::string avoiding() const {
@@ -488,17 +496,7 @@ struct Configurator::Impl {
     events.record("drift", std::to_string(writes) + " deployed tuple(s) differ from generation's " +
                                "values (changed by another writer, or a PEIS restarted): putting "
                                "them back");
-    const auto result = deployer.deploy(deployed->configuration, live);
-    for (const auto& w : result.warnings) events.record("warning", w);
-    if (result.ok) {
-      if (!result.unchanged)
-        events.record("deployed", "generation " + std::to_string(result.generation) + ": " +
-                                      std::to_string(result.writes) + " writes on " +
-                                      std::to_string(result.peisTouched) + " PEIS in " +
-                                      fixed(result.milliseconds) + " ms");
-    } else {
-      events.record("deploy-failed", result.error);
-    }
+    deploy(deployed->configuration, live);
     driftSince.reset();
   }
 
