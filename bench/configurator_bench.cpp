@@ -20,7 +20,7 @@
 //   peis-bench-configurator soak [--trials N] [--liveness-ms MS]
 #include <fcntl.h>
 #include <signal.h>
-#include <spawn.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -55,7 +55,8 @@ using namespace std::chrono_literals;
 using peis::bench::Clock;
 using peis::bench::percentiles;
 
-// A program of the build, started with posix_spawn and ended by pid.
+// A program of the build, started as a child that dies with the benchmark,
+// ended by pid.
 class Program {
  public:
   Program(const std::string& path, std::vector<std::string> args,
@@ -70,13 +71,19 @@ class Program {
     std::vector<char*> envp;
     for (auto& e : envStrings) envp.push_back(e.data());
     envp.push_back(nullptr);
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 1, "/dev/null", O_WRONLY, 0);
-    posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);
-    const int error = posix_spawn(&pid_, path.c_str(), &actions, nullptr, argv.data(), envp.data());
-    posix_spawn_file_actions_destroy(&actions);
-    if (error != 0) throw std::runtime_error("cannot start " + path);
+    const pid_t parent = getpid();
+    pid_ = fork();
+    if (pid_ < 0) throw std::runtime_error("cannot start " + path);
+    if (pid_ == 0) {
+      // Dies with the benchmark, however it ends.
+      prctl(PR_SET_PDEATHSIG, SIGKILL);
+      if (getppid() != parent) _exit(1);
+      const int null = open("/dev/null", O_WRONLY);
+      dup2(null, 1);
+      dup2(null, 2);
+      execve(path.c_str(), argv.data(), envp.data());
+      _exit(127);
+    }
   }
   Program(const Program&) = delete;
   Program& operator=(const Program&) = delete;
@@ -278,6 +285,12 @@ struct RepairSetup {
                 "position@bench.mi-position\ntemperature@thermostat.mi-temperature\n");
   }
 
+  bool reachable(peis::PeisId id) const {
+    for (const auto& p : kernel->peers())
+      if (p.id == id) return true;
+    return false;
+  }
+
   std::optional<peis::PeisId> pointedAt() const {
     auto ref = kernel->resolveMeta(kernel->id(), "mi-position");
     if (!ref) return std::nullopt;
@@ -328,13 +341,17 @@ int repairBench(int trials, std::chrono::milliseconds liveness, bool freeze) {
   std::uint64_t healthySeqno = 0;
   const std::string descriptor =
       std::string(PEIS_SOURCE_DIR) + "/tests/meta/descriptors/position-cheap.yaml";
+  std::optional<peis::PeisId> previous;
   for (int t = 0; t < trials; ++t) {
+    // The last trial's producer must be gone before another of its name starts.
+    if (previous) waitUntil([&] { return !setup.reachable(*previous); }, 30s);
     auto cheap = std::make_unique<Program>(
         PEIS_SYNTHETIC_PATH,
         std::vector<std::string>{"--peis-name", "pa", "--descriptor", descriptor, "--period-ms",
                                  "20", "--freshness-ms", "200"},
         setup.env);
     const auto cheapId = setup.kernel->waitForPeer("pa", 60s);
+    previous = cheapId;
     // The configurator puts the consumer (back) on the cheap producer.
     const auto since = Clock::now();
     if (!cheapId || !waitUntil(
