@@ -106,7 +106,8 @@ class Program {
 
 std::string ecologyName(const std::string& what) {
   std::random_device device;
-  return "bench-cfg-" + what + "-" + std::to_string(getpid()) + "-" + std::to_string(device() % 100000);
+  return "bench-cfg-" + what + "-" + std::to_string(getpid()) + "-" +
+         std::to_string(device() % 100000);
 }
 
 bool waitUntil(const std::function<bool()>& condition, std::chrono::milliseconds deadline) {
@@ -155,18 +156,19 @@ int deployBench(int trials) {
   const std::vector<std::string> env = {"PEIS_ECOLOGY=" + ecology, "PEIS_LOG=quiet"};
   std::vector<std::unique_ptr<Program>> nodes;
   for (int i = 0; i < 10; ++i) {
-    const auto descriptor = writeFile(
-        dir / ("n" + std::to_string(i) + ".yaml"),
-        "component: node" + std::to_string(i) +
-            "\nfunctionalities:\n  - name: produce\n    outputs:\n"
-            "      - {name: x, type: t" + std::to_string(i) + ", key: t" + std::to_string(i) +
-            "}\n      - {name: y, type: t" + std::to_string(i + 10) + ", key: t" +
-            std::to_string(i + 10) + "}\n    activation: producing\n    cost: 1\n");
-    nodes.push_back(std::make_unique<Program>(
-        PEIS_SYNTHETIC_PATH,
-        std::vector<std::string>{"--peis-name", "n" + std::to_string(i), "--descriptor",
-                                 descriptor},
-        env));
+    const auto descriptor =
+        writeFile(dir / ("n" + std::to_string(i) + ".yaml"),
+                  "component: node" + std::to_string(i) +
+                      "\nfunctionalities:\n  - name: produce\n    outputs:\n"
+                      "      - {name: x, type: t" +
+                      std::to_string(i) + ", key: t" + std::to_string(i) +
+                      "}\n      - {name: y, type: t" + std::to_string(i + 10) + ", key: t" +
+                      std::to_string(i + 10) + "}\n    activation: producing\n    cost: 1\n");
+    nodes.push_back(
+        std::make_unique<Program>(PEIS_SYNTHETIC_PATH,
+                                  std::vector<std::string>{"--peis-name", "n" + std::to_string(i),
+                                                           "--descriptor", descriptor},
+                                  env));
   }
   peis::Kernel kernel(benchOptions(ecology, 2000ms));
   peis::meta::Introspector introspector(kernel);
@@ -220,8 +222,8 @@ int deployBench(int trials) {
             << trials << " switches.\n\n"
             << "| deployment | tuples written | p50 (ms) | p99 (ms) | max (ms) |\n"
             << "|---|---|---|---|---|\n"
-            << "| from nothing (20 links, 10 activations) | " << firstWrites << " | "
-            << row(first) << " |\n"
+            << "| from nothing (20 links, 10 activations) | " << firstWrites << " | " << row(first)
+            << " |\n"
             << "| switch to another 20-link configuration | " << switchWrites << " | "
             << row(switched) << " |\n"
             << "| the same again (nothing to change) | " << sameWrites << " | " << row(unchanged)
@@ -320,6 +322,13 @@ struct RepairSetup {
     }
     return found;
   }
+  // On a missed trial: what the configurator did (stderr, for the reader).
+  void explain(const std::string& what, std::uint64_t from) {
+    std::cerr << "peis-bench-configurator: " << what << "; the configurator's events since:\n";
+    for (const auto& [n, e] : eventsAfter(from > 30 ? from - 30 : 0))
+      std::cerr << "  " << n << " " << e.second << "\n";
+  }
+
   std::uint64_t lastEvent() {
     std::uint64_t last = 0;
     for (const auto& t : kernel->find(peis::Pattern("config.event.*", cfg)))
@@ -354,11 +363,9 @@ int repairBench(int trials, std::chrono::milliseconds liveness, bool freeze) {
     previous = cheapId;
     // The configurator puts the consumer (back) on the cheap producer.
     const auto since = Clock::now();
-    if (!cheapId || !waitUntil(
-                        [&] {
-                          return setup.pointedAt() == cheapId && setup.freshFrom(*cheapId, since);
-                        },
-                        60s)) {
+    if (!cheapId ||
+        !waitUntil([&] { return setup.pointedAt() == cheapId && setup.freshFrom(*cheapId, since); },
+                   60s)) {
       ++missed;
       continue;
     }
@@ -379,6 +386,7 @@ int repairBench(int trials, std::chrono::milliseconds liveness, bool freeze) {
         60s);
     if (freeze) cheap->stop(SIGKILL);
     if (!repaired) {
+      setup.explain("trial " + std::to_string(t) + ": not repaired", before);
       ++missed;
       continue;
     }
@@ -402,11 +410,10 @@ int repairBench(int trials, std::chrono::milliseconds liveness, bool freeze) {
     const auto after = setup.kernel->get(setup.thermostatId, "mi-temperature");
     if (!after || after->seqno != healthySeqno) ++repointed;
   }
-  std::cout << "| " << (freeze ? "SIGSTOP (hung)" : "kill -9") << " | " << liveness.count()
-            << " | " << detection.size() << " | " << row(detection, " / ") << " | "
-            << row(planning, " / ") << " | " << row(deployment, " / ") << " | "
-            << row(total, " / ") << " | " << row(fresh, " / ") << " | "
-            << repointed << " | " << missed << " |\n";
+  std::cout << "| " << (freeze ? "SIGSTOP (hung)" : "kill -9") << " | " << liveness.count() << " | "
+            << detection.size() << " | " << row(detection, " / ") << " | " << row(planning, " / ")
+            << " | " << row(deployment, " / ") << " | " << row(total, " / ") << " | "
+            << row(fresh, " / ") << " | " << repointed << " | " << missed << " |\n";
   return 0;
 }
 

@@ -10,8 +10,8 @@
 #include <sstream>
 
 #include "peis/error.h"
-#include "yaml_error.h"
 #include "peis/key.h"
+#include "yaml_error.h"
 
 namespace peis::bridge {
 namespace {

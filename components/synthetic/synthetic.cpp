@@ -99,7 +99,9 @@ struct Synthetic {
   long counter = 0;
 
   Synthetic(peis::Kernel& k, Settings s, peis::Descriptor d)
-      : kernel(k), settings(std::move(s)), descriptor(std::move(d)),
+      : kernel(k),
+        settings(std::move(s)),
+        descriptor(std::move(d)),
         component(k, descriptor.component, descriptor) {}
 
   void declareInputs(const std::map<std::string, std::string>& binding) {
@@ -202,7 +204,8 @@ int main(int argc, char** argv) {
   }
   Settings settings;
   const int code = peis::exec::parseProgramOptions(
-      argc, argv, "peis-synthetic", kUsage, [&settings](const std::string& n, const std::string& v) {
+      argc, argv, "peis-synthetic", kUsage,
+      [&settings](const std::string& n, const std::string& v) {
         if (n == "--descriptor") {
           settings.descriptorPath = v;
         } else if (n == "--period-ms") {

@@ -22,7 +22,8 @@ constexpr std::size_t kLockHistoryLines = 16;
 using Clock = std::chrono::steady_clock;
 
 std::string describePeis(int id, const std::string& name) {
-  return "PEIS " + (name.empty() ? std::to_string(id) : "'" + name + "' (" + std::to_string(id) + ")");
+  return "PEIS " +
+         (name.empty() ? std::to_string(id) : "'" + name + "' (" + std::to_string(id) + ")");
 }
 
 // Several remote writes at once; waits for all their answers.
@@ -42,8 +43,8 @@ class Batch {
     try {
       kernel_.setAsync(peis, key, value, options,
                        [this, index](const std::optional<Error>& error, std::uint64_t) {
-                         finish(index, error ? std::optional<std::string>(error->what())
-                                             : std::nullopt);
+                         finish(index,
+                                error ? std::optional<std::string>(error->what()) : std::nullopt);
                        });
     } catch (const Error& e) {
       finish(index, std::string(e.what()));
@@ -113,8 +114,16 @@ std::uint64_t Deployer::nextGeneration(const LiveModel&) const {
 
 std::vector<PeisChanges> Deployer::pendingChanges(const Configuration& configuration,
                                                   const LiveModel& live) const {
+  return changesExcept(configuration, live, {});
+}
+
+std::vector<PeisChanges> Deployer::changesExcept(const Configuration& configuration,
+                                                 const LiveModel& live,
+                                                 const std::set<int>& excluded) const {
+  auto owned = ownedRecords(live);
+  for (int id : excluded) owned.erase(id);
   return diffDeployment(
-      desiredState(configuration), ownedRecords(live),
+      desiredState(configuration), owned,
       [this](int peis, const std::string& key) { return currentValue(peis, key); },
       [&live](const std::string& data) { return live.canonicalTarget(data); });
 }
@@ -183,7 +192,8 @@ void Deployer::release(const std::vector<Held>& held, std::uint64_t generation) 
   }
 }
 
-DeployResult Deployer::deploy(const Configuration& configuration, const LiveModel& live) {
+DeployResult Deployer::deploy(const Configuration& configuration, const LiveModel& live,
+                              const std::set<int>& leaveAlone) {
   const auto start = Clock::now();
   DeployResult result;
   auto finish = [&](DeployResult r) {
@@ -203,19 +213,31 @@ DeployResult Deployer::deploy(const Configuration& configuration, const LiveMode
       return finish(result);
     }
   }
-  if (pendingChanges(configuration, live).empty()) {
+  std::set<int> skipped;
+  for (int id : leaveAlone)
+    if (!desired.tuples.count(id)) skipped.insert(id);
+  if (changesExcept(configuration, live, skipped).empty()) {
     result.ok = result.unchanged = true;
     return finish(result);
   }
   result.generation = nextGeneration(live);
   std::vector<Held> held;
   std::set<int> touched = desired.peis();
+  // PEIS locked only to switch off what an earlier configuration left there:
+  // one that does not answer is left as it is (its record stays, a later
+  // deployment tries again), so a hung PEIS cannot hold up a repair.
   for (int attempt = 0;; ++attempt) {
     for (const auto& [id, keys] : ownedRecords(live)) touched.insert(id);
     for (int id : touched) {
+      if (skipped.count(id)) continue;
       Held h{};
       std::string error;
       if (!acquire(id, nameOf(id), result.generation, h, error)) {
+        if (!desired.tuples.count(id)) {
+          result.warnings.push_back(error + " (what it holds of an earlier configuration stays)");
+          skipped.insert(id);
+          continue;
+        }
         release(held, result.generation);
         result.failedPeis = id;
         result.failedPeisName = nameOf(id);
@@ -232,7 +254,7 @@ DeployResult Deployer::deploy(const Configuration& configuration, const LiveMode
     release(held, result.generation);
     held.clear();
   }
-  const auto changes = pendingChanges(configuration, live);
+  const auto changes = changesExcept(configuration, live, skipped);
   result.peisTouched = changes.size();
   auto failed = [&](const std::vector<Batch::Result>& results) -> const Batch::Result* {
     for (const auto& r : results)
@@ -243,8 +265,8 @@ DeployResult Deployer::deploy(const Configuration& configuration, const LiveMode
     release(held, result.generation);
     result.failedPeis = r.peis;
     result.failedPeisName = nameOf(r.peis);
-    result.error = describePeis(r.peis, nameOf(r.peis)) + " did not accept " + what + " (" +
-                   r.key + "): " + *r.error;
+    result.error = describePeis(r.peis, nameOf(r.peis)) + " did not accept " + what + " (" + r.key +
+                   "): " + *r.error;
     return finish(result);
   };
   // 1. Intent: every key this deployment may write is in the records first.
@@ -256,8 +278,8 @@ DeployResult Deployer::deploy(const Configuration& configuration, const LiveMode
       keys.insert(c.ownedAfter.begin(), c.ownedAfter.end());
       if (keys == c.ownedBefore) continue;
       previousRecords[c.peis] = currentValue(c.peis, kOwnedKey).value_or("");
-      intent.set(c.peis, kOwnedKey,
-                 OwnedRecord{result.generation, kernel_.id(), keys}.format(), false);
+      intent.set(c.peis, kOwnedKey, OwnedRecord{result.generation, kernel_.id(), keys}.format(),
+                 false);
     }
     const auto results = intent.wait();
     if (const auto* r = failed(results)) return fail(*r, "the configuration record");
@@ -280,8 +302,7 @@ DeployResult Deployer::deploy(const Configuration& configuration, const LiveMode
   for (std::size_t i = 0; i < sent.size(); ++i) {
     if (!writeResults[i].error || wanted[i]) continue;
     result.warnings.push_back(describePeis(sent[i].peis, nameOf(sent[i].peis)) +
-                              " did not switch off " + sent[i].key + ": " +
-                              *writeResults[i].error);
+                              " did not switch off " + sent[i].key + ": " + *writeResults[i].error);
   }
   const Batch::Result* refused = nullptr;
   for (std::size_t i = 0; i < sent.size() && !refused; ++i)

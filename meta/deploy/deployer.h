@@ -20,7 +20,9 @@
 //      the records, releases the locks and fails naming the PEIS, so no half
 //      configuration is left. A PEIS that does not take a switch-off (a key
 //      only the old configuration wanted) is left as it is, with a warning:
-//      one such PEIS cannot block every later configuration.
+//      one such PEIS cannot block every later configuration. Likewise a PEIS
+//      locked only because it holds a record of an earlier configuration,
+//      that does not take the lock (hung), is left out with a warning.
 //
 // Blocking: call it from a thread of its own, never the kernel thread. The
 // cache it reads (locks, records, current values) is kept by an
@@ -50,9 +52,9 @@ struct DeployResult {
   std::uint64_t generation = 0;  // of this deployment
   std::size_t writes = 0;        // tuples written (switching off included)
   std::size_t peisTouched = 0;
-  std::string error;             // when !ok: what failed, naming the PEIS
+  std::string error;                  // when !ok: what failed, naming the PEIS
   std::vector<std::string> warnings;  // switch-offs a PEIS did not take (given up)
-  int failedPeis = 0;            // the PEIS that refused or did not answer (0: none)
+  int failedPeis = 0;                 // the PEIS that refused or did not answer (0: none)
   std::string failedPeisName;
   double milliseconds = 0;
 };
@@ -62,8 +64,12 @@ class Deployer {
   explicit Deployer(Kernel& kernel, DeployOptions options = {});
 
   // Deploys `configuration` (ids as the live model has them). `live` is a
-  // recent snapshot: names, who is alive, the records.
-  DeployResult deploy(const Configuration& configuration, const LiveModel& live);
+  // recent snapshot: names, who is alive, the records. PEIS in `leaveAlone`
+  // (ones whose functionality just failed) are not locked or written unless
+  // the configuration itself needs them: what they hold of an earlier
+  // configuration stays until a later deployment.
+  DeployResult deploy(const Configuration& configuration, const LiveModel& live,
+                      const std::set<int>& leaveAlone = {});
 
   // The changes deploying would make now, without locks (for the
   // idempotency check and `--dry-run`).
@@ -80,6 +86,8 @@ class Deployer {
   void release(const std::vector<Held>& held, std::uint64_t generation);
   std::uint64_t nextGeneration(const LiveModel& live) const;
   std::map<int, std::set<std::string>> ownedRecords(const LiveModel& live) const;
+  std::vector<PeisChanges> changesExcept(const Configuration& configuration, const LiveModel& live,
+                                         const std::set<int>& excluded) const;
   std::optional<std::string> currentValue(int peis, const std::string& key) const;
   bool alive(int peis) const;
 

@@ -50,9 +50,9 @@ struct TupleWrite {
 struct PeisChanges {
   int peis = 0;
   std::string name;
-  std::vector<TupleWrite> writes;         // ordered by key
-  std::set<std::string> ownedBefore;      // its config.owned record now
-  std::set<std::string> ownedAfter;       // the keys the new configuration wants there
+  std::vector<TupleWrite> writes;     // ordered by key
+  std::set<std::string> ownedBefore;  // its config.owned record now
+  std::set<std::string> ownedAfter;   // the keys the new configuration wants there
   bool recordChanges() const { return ownedBefore != ownedAfter; }
   bool operator==(const PeisChanges&) const = default;
 };

@@ -24,11 +24,17 @@ bool startsWith(std::string_view text, std::string_view prefix) {
 bool isMetaInputKey(std::string_view key) { return startsWith(key, cv::kMetaInputPrefix); }
 
 // The keys every PEIS is watched for, whoever owns them.
-const std::vector<std::string> kWatched = {
-    special::kAllKeys,  std::string(cv::kStatus),     std::string(cv::kCauseNames),
-    std::string(cv::kComponentName), std::string(cv::kComponentDescriptor),
-    "fact.**",          "tiny.bridge",                "config.owned",
-    "config.lock",      "config.goal.**",             "config.configurator"};
+const std::vector<std::string> kWatched = {special::kAllKeys,
+                                           std::string(cv::kStatus),
+                                           std::string(cv::kCauseNames),
+                                           std::string(cv::kComponentName),
+                                           std::string(cv::kComponentDescriptor),
+                                           "fact.**",
+                                           "tiny.bridge",
+                                           "config.owned",
+                                           "config.lock",
+                                           "config.goal.**",
+                                           "config.configurator"};
 
 std::set<std::string> splitWords(const std::string& text) {
   std::istringstream in(text);
@@ -53,10 +59,13 @@ struct Introspector::State {
     bool tool = false;
     bool keysSeen = false;
     std::set<std::string> allKeys;
-    std::set<std::string> received;  // followed keys that have a value here
+    std::set<std::string> received;                   // followed keys that have a value here
     std::map<std::string, SubscriptionHandle> exact;  // per-owner subscriptions by key
     std::set<std::string> actuatorKeys;               // `<act>.reqState` … of the descriptor
+    std::chrono::steady_clock::time_point goneAt{};   // when it left (if it did)
   };
+  // A PEIS gone this long is forgotten (it is kept meanwhile, for explanations).
+  static constexpr std::chrono::minutes kForgetAfter{10};
   std::map<PeisId, Peer> peers;
   std::vector<SubscriptionHandle> subscriptions;
   std::vector<CallbackHandle> callbacks;
@@ -111,9 +120,20 @@ struct Introspector::State {
         peer.live.incarnation = static_cast<std::int64_t>(info.incarnation);
         peer.tool = info.tool;
       }
+      const auto now = std::chrono::steady_clock::now();
+      for (auto it = peers.begin(); it != peers.end();) {
+        if (!it->second.live.alive && !present.count(it->first) &&
+            now - it->second.goneAt > kForgetAfter) {
+          it = peers.erase(it);
+          changedAny = true;
+        } else {
+          ++it;
+        }
+      }
       for (auto& [id, peer] : peers) {
         if (present.count(id) || !peer.live.alive) continue;
         peer.live.alive = false;
+        peer.goneAt = now;
         changedAny = true;
         for (const auto& [key, handle] : peer.exact) kernel.unsubscribe(handle);
         peer.exact.clear();

@@ -66,7 +66,8 @@ std::optional<Term> factOfKey(std::string_view key) {
   std::string termText(parts[0]);
   if (parts.size() > 1) {
     termText += "(";
-    for (std::size_t i = 1; i < parts.size(); ++i) termText += (i > 1 ? "," : "") + std::string(parts[i]);
+    for (std::size_t i = 1; i < parts.size(); ++i)
+      termText += (i > 1 ? "," : "") + std::string(parts[i]);
     termText += ")";
   }
   auto term = Term::parse(termText);
@@ -192,15 +193,16 @@ std::string LiveModel::toJson() const {
   std::string out = "{\"peis\":[";
   for (std::size_t i = 0; i < peis.size(); ++i) {
     const auto& p = peis[i];
-    out += std::string(i ? "," : "") + "{\"id\":" + std::to_string(p.id) +
-           ",\"name\":" + quote(p.name) + ",\"alive\":" + (p.alive ? "true" : "false") +
-           ",\"radio\":" + (p.radio ? "true" : "false") +
-           ",\"configurator\":" + (p.configurator ? "true" : "false") +
-           ",\"component\":" + quote(p.component) + ",\"status\":" + quote(p.status) +
-           ",\"causes\":" + quote(p.causes) + ",\"descriptor\":" +
-           (p.descriptor ? quote(p.descriptor->toYaml()) : std::string("null")) +
-           ",\"descriptorProblem\":" + quote(p.descriptorProblem) + ",\"links\":" + object(p.links) +
-           ",\"actuators\":{";
+    out +=
+        std::string(i ? "," : "") + "{\"id\":" + std::to_string(p.id) +
+        ",\"name\":" + quote(p.name) + ",\"alive\":" + (p.alive ? "true" : "false") +
+        ",\"radio\":" + (p.radio ? "true" : "false") +
+        ",\"configurator\":" + (p.configurator ? "true" : "false") +
+        ",\"component\":" + quote(p.component) + ",\"status\":" + quote(p.status) +
+        ",\"causes\":" + quote(p.causes) +
+        ",\"descriptor\":" + (p.descriptor ? quote(p.descriptor->toYaml()) : std::string("null")) +
+        ",\"descriptorProblem\":" + quote(p.descriptorProblem) + ",\"links\":" + object(p.links) +
+        ",\"actuators\":{";
     bool first = true;
     for (const auto& [name, a] : p.actuators) {
       out += std::string(first ? "" : ",") + quote(name) + ":{\"reqState\":" + quote(a.reqState) +

@@ -31,21 +31,21 @@ struct LivePeis {
   int id = 0;
   std::string name;
   bool alive = true;
-  bool radio = false;             // a tiny node's proxy (it has `tiny.bridge`)
-  std::int64_t incarnation = 0;   // start time in µs, as PeerInfo says
-  std::string component;          // `component.name`; empty: no component
-  std::optional<Descriptor> descriptor;  // from `component.descriptor`
-  std::string descriptorProblem;  // why the published descriptor was not usable
-  std::string status;             // `status` (empty: none published)
-  std::string causes;             // `cause.names`
+  bool radio = false;                        // a tiny node's proxy (it has `tiny.bridge`)
+  std::int64_t incarnation = 0;              // start time in µs, as PeerInfo says
+  std::string component;                     // `component.name`; empty: no component
+  std::optional<Descriptor> descriptor;      // from `component.descriptor`
+  std::string descriptorProblem;             // why the published descriptor was not usable
+  std::string status;                        // `status` (empty: none published)
+  std::string causes;                        // `cause.names`
   std::map<std::string, std::string> links;  // meta input key -> its data (`ID.KEY`, or empty)
   std::map<std::string, ActuatorState> actuators;  // activation actuators of the descriptor
   std::vector<std::string> facts;  // ground atoms in canonical form (`in-view(pippi,cam1)`)
   std::map<std::string, std::string> goals;  // `config.goal.<label>` key -> its text
-  std::string owned;   // `config.owned`: what the configuration wrote here
-  std::string lock;    // `config.lock`: who deploys here (last line counts)
-  std::uint64_t lockSeqno = 0;  // the lock tuple's seqno (0: absent)
-  bool configurator = false;    // publishes `config.configurator`
+  std::string owned;                         // `config.owned`: what the configuration wrote here
+  std::string lock;                          // `config.lock`: who deploys here (last line counts)
+  std::uint64_t lockSeqno = 0;               // the lock tuple's seqno (0: absent)
+  bool configurator = false;                 // publishes `config.configurator`
   bool operator==(const LivePeis&) const = default;
 };
 
@@ -64,7 +64,8 @@ struct LiveModel {
   // of alive PEIS with their publisher. A PEIS whose name is not one plain
   // word for the planner is named `peis-<id>`; a dead PEIS whose name an
   // alive one carries (a restart under a new id) is left out.
-  Model toModel(const LinkCosts& costs = {}, const std::vector<LinkCostOverride>& overrides = {}) const;
+  Model toModel(const LinkCosts& costs = {},
+                const std::vector<LinkCostOverride>& overrides = {}) const;
 
   // For a person (`peis config model`): one block per PEIS.
   std::string toText() const;

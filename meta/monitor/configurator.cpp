@@ -88,6 +88,11 @@ struct Configurator::Impl {
   std::string deployedSources;  // the goal tuples it serves
   bool hadGoals = false;
   std::optional<Clock::time_point> driftSince;
+  Clock::time_point driftQuietUntil{};  // after a drift deployment that changed nothing
+  // A repair that could not be deployed (no configuration, a deployment
+  // that failed): tried again when the ecology changes, or after the grace period.
+  bool repairPending = false;
+  Clock::time_point repairRetryAt{};
   std::string publishedStatus;
   std::vector<GoalStatusLine> statusLines;  // the answers published last
 
@@ -181,7 +186,8 @@ struct Configurator::Impl {
     };
     consider(monitor.nextCheck());
     consider(failed.nextCheck());
-    if (driftSince) consider(*driftSince + options.driftHold);
+    if (repairPending) consider(repairRetryAt);
+    if (driftSince) consider(std::max(*driftSince + options.driftHold, driftQuietUntil));
     if (publishedVersion != introspector.version()) consider(lastPublish + kPublishEvery);
     return next;
   }
@@ -215,12 +221,17 @@ struct Configurator::Impl {
       mustSwitch = true;
     }
     for (const auto& f : failed.recovered(live, now)) {
-      events.record("recovered", f.instance.toString() + " can be used again (" +
-                                     toString(f.kind) + " cleared)");
+      events.record("recovered", f.instance.toString() + " can be used again (" + toString(f.kind) +
+                                     " cleared)");
       if (reason.empty()) reason = "recovered";
     }
     applyFailures();
-    if (reason.empty() && modelChanged && (deployed || !sources.empty())) reason = "ecology changed";
+    if (repairPending && (modelChanged || now >= repairRetryAt)) {
+      if (reason.empty()) reason = "repair";
+      mustSwitch = true;
+    }
+    if (reason.empty() && modelChanged && (deployed || !sources.empty()))
+      reason = "ecology changed";
     if (!reason.empty()) {
       planAndDeploy(sources, sourcesText, model, live, reason, mustSwitch);
     } else {
@@ -270,7 +281,8 @@ struct Configurator::Impl {
 
   static std::string describeSources(const std::vector<GoalSource>& sources) {
     std::string text;
-    for (const auto& s : sources) text += std::to_string(s.owner) + "." + s.key + "=" + s.text + "\n";
+    for (const auto& s : sources)
+      text += std::to_string(s.owner) + "." + s.key + "=" + s.text + "\n";
     return text;
   }
 
@@ -395,6 +407,9 @@ struct Configurator::Impl {
       publishStatus({});
       return;
     }
+    // Until a deployment succeeds, a repair stays pending.
+    if (mustSwitch && reason != "goals") repairPending = true;
+    repairRetryAt = Clock::now() + options.grace;
     LiveModel current = live;
     for (int attempt = 0; attempt < 3; ++attempt) {
       const auto started = Clock::now();
@@ -409,21 +424,22 @@ struct Configurator::Impl {
       const auto& config = planned.result.configuration;
       events.record("replanned", reason + ": cost " + fixed(config.cost) + " (" +
                                      toString(planned.result.status) + "), " +
-                                     std::to_string(config.instances.size()) + " functionalities, " +
-                                     std::to_string(config.links.size()) + " links, in " +
-                                     fixed(planMs) + " ms" + avoiding());
+                                     std::to_string(config.instances.size()) +
+                                     " functionalities, " + std::to_string(config.links.size()) +
+                                     " links, in " + fixed(planMs) + " ms" + avoiding());
       if (!mustSwitch && deployed && deployed->ok() &&
           !worthSwitching(deployed->configuration.cost, config.cost, options.switchMargin)) {
         if (!(config == deployed->configuration))
           events.record("kept", "cost " + fixed(config.cost) + " is not " +
                                     fixed(100 * options.switchMargin, 0) +
-                                    " % below the deployed " +
-                                    fixed(deployed->configuration.cost) + ": no switch");
+                                    " % below the deployed " + fixed(deployed->configuration.cost) +
+                                    ": no switch");
         deployedSources = sourcesText;
         return;
       }
       const auto result = deploy(config, current);
       if (result.ok) {
+        repairPending = false;
         deployed = planned.result;
         deployedSources = sourcesText;
         hadGoals = !sources.empty();
@@ -435,10 +451,13 @@ struct Configurator::Impl {
       }
       if (result.failedPeis == 0) break;
       // Ask again without the PEIS that did not take the writes.
-      Failure refused{FailureKind::StaleInput, {}, result.failedPeis, 0,
+      Failure refused{FailureKind::StaleInput,
+                      {},
+                      result.failedPeis,
+                      0,
                       "did not accept the deployment: " + result.error};
-      refused.instance.peis = result.failedPeisName.empty() ? std::to_string(result.failedPeis)
-                                                            : result.failedPeisName;
+      refused.instance.peis =
+          result.failedPeisName.empty() ? std::to_string(result.failedPeis) : result.failedPeisName;
       if (const auto* p = live.find(result.failedPeis)) refused.incarnation = p->incarnation;
       failed.add(refused, Clock::now());
       applyFailures();
@@ -450,7 +469,12 @@ struct Configurator::Impl {
 
   // Deploys and records the outcome as events (deployed, deploy-failed, warnings).
   DeployResult deploy(const Configuration& config, const LiveModel& live) {
-    const auto result = deployer.deploy(config, live);
+    // The PEIS of failed parts are not waited on to switch anything off.
+    std::set<int> failedPeis;
+    for (const auto& s : failed.selectors()) {
+      if (const auto* p = live.findByName(s.peis)) failedPeis.insert(p->id);
+    }
+    const auto result = deployer.deploy(config, live, failedPeis);
     for (const auto& w : result.warnings) events.record("warning", w);
     if (!result.ok) {
       events.record("deploy-failed", result.error);
@@ -489,6 +513,7 @@ struct Configurator::Impl {
       driftSince.reset();
       return;
     }
+    if (now < driftQuietUntil) return;
     if (!driftSince) driftSince = now;
     if (now - *driftSince < options.driftHold) return;
     std::size_t writes = 0;
@@ -496,7 +521,9 @@ struct Configurator::Impl {
     events.record("drift", std::to_string(writes) + " deployed tuple(s) differ from generation's " +
                                "values (changed by another writer, or a PEIS restarted): putting "
                                "them back");
-    deploy(deployed->configuration, live);
+    const auto result = deploy(deployed->configuration, live);
+    // Nothing could be put back (a PEIS that does not answer): look again later.
+    if (!result.ok || result.writes == 0) driftQuietUntil = now + options.grace;
     driftSince.reset();
   }
 

@@ -33,10 +33,10 @@ namespace peis::meta {
 
 struct ConfiguratorOptions {
   // Zero means: derived from the kernel's liveness period L.
-  std::chrono::milliseconds grace{0};        // stale input judged after this (L)
-  std::chrono::milliseconds settle{0};       // a new deployment's links get this long (L)
-  std::chrono::milliseconds recoverHold{0};  // a failed part must look healthy this long (2 L)
-  std::chrono::milliseconds startupWait{0};  // wait for the ecology before planning (2 L)
+  std::chrono::milliseconds grace{0};           // stale input judged after this (L)
+  std::chrono::milliseconds settle{0};          // a new deployment's links get this long (L)
+  std::chrono::milliseconds recoverHold{0};     // a failed part must look healthy this long (2 L)
+  std::chrono::milliseconds startupWait{0};     // wait for the ecology before planning (2 L)
   std::chrono::milliseconds retryAfter{30000};  // first retry of a part that did not deliver
   std::chrono::milliseconds driftHold{250};     // a changed deployed tuple is put back after this
   std::chrono::milliseconds planTimeLimit{200};

@@ -79,8 +79,8 @@ const char* toString(GoalState state) {
 }
 
 std::string GoalStatusLine::format() const {
-  std::string line = std::to_string(owner) + "." + key + " " + std::to_string(seqno) + " " +
-                     meta::toString(state);
+  std::string line =
+      std::to_string(owner) + "." + key + " " + std::to_string(seqno) + " " + meta::toString(state);
   if (!reason.empty()) {
     std::string oneLine;
     for (char c : reason) oneLine += c == '\n' ? ' ' : c;

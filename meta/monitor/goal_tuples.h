@@ -48,8 +48,8 @@ const char* toString(GoalState state);
 
 struct GoalStatusLine {
   int owner = 0;
-  std::string key;             // `config.goal.<label>`
-  std::uint64_t seqno = 0;     // of the goal tuple this answers
+  std::string key;          // `config.goal.<label>`
+  std::uint64_t seqno = 0;  // of the goal tuple this answers
   GoalState state = GoalState::Pending;
   std::string reason;
   std::string format() const;  // `12.config.goal.planner 3 deployed`

@@ -125,7 +125,8 @@ std::vector<Failure> HealthMonitor::observe(const LiveModel& live, MonitorClock:
                     const LivePeis* peis) {
     const auto selector = selectorOf(instance);
     if (!reported_.insert(selector.toString()).second) return;
-    failures.push_back(Failure{kind, selector, instance.peisId, peis ? peis->incarnation : 0, cause});
+    failures.push_back(
+        Failure{kind, selector, instance.peisId, peis ? peis->incarnation : 0, cause});
   };
   std::set<std::string> facts;
   for (const auto& p : live.peis)
@@ -197,7 +198,8 @@ std::vector<Failure> HealthMonitor::observe(const LiveModel& live, MonitorClock:
                        seconds(waited) + ": " + link.producerPeis + "." + link.producerKey +
                        " not delivered";
     const auto producers = producersOf(configuration_, model_, link);
-    for (const auto& instance : producers) report(instance, FailureKind::StaleInput, cause, producer);
+    for (const auto& instance : producers)
+      report(instance, FailureKind::StaleInput, cause, producer);
     if (producers.empty()) {
       // No instance known to write it (a plain PEIS): the whole PEIS is blamed.
       InstanceSelector all;
@@ -248,7 +250,8 @@ std::vector<Failure> FailedParts::recovered(const LiveModel& live, MonitorClock:
     if (!peis) peis = live.find(f.peisId);
     bool healthy = false;
     if (peis && peis->alive) {
-      const bool restarted = peis->id != f.peisId || (f.incarnation != 0 && peis->incarnation != f.incarnation);
+      const bool restarted =
+          peis->id != f.peisId || (f.incarnation != 0 && peis->incarnation != f.incarnation);
       switch (f.kind) {
         case FailureKind::PeisGone:
           healthy = true;

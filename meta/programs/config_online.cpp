@@ -9,9 +9,9 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <stdexcept>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <thread>
 
 #include "deploy/deployer.h"
@@ -147,8 +147,7 @@ int model(const std::vector<std::string>& args) {
   std::string source = "introspected by this command";
   if (const auto cfg = session.configurator(); cfg && !a.has("--local")) {
     if (const auto published = session.kernel->get(*cfg, "model.live", toMs(wait))) {
-      live = LiveModel::fromYaml(published->data,
-                                 session.nameOf(*cfg) + ".model.live");
+      live = LiveModel::fromYaml(published->data, session.nameOf(*cfg) + ".model.live");
       source = "published by configurator " + session.nameOf(*cfg);
     }
   }
@@ -239,8 +238,7 @@ int apply(const std::vector<std::string>& args) {
     const std::string key = std::string(kGoalPrefix) + label;
     const auto written = session.kernel->set(*cfg, key, formatGoalTuple(lines));
     const auto answer = awaitAnswer(session, *cfg, key, written.seqno, toMs(timeout));
-    std::cout << "goals posted to configurator " << session.nameOf(*cfg) << " as " << key
-              << "\n";
+    std::cout << "goals posted to configurator " << session.nameOf(*cfg) << " as " << key << "\n";
     if (!answer) {
       std::cout << "no answer from the configurator within " << timeout << " s\n";
       return 1;
@@ -388,8 +386,10 @@ int show(const std::vector<std::string>& args) {
   for (const auto& b : busy) std::cout << "being deployed: " << b << "\n";
   if (cfg) {
     std::cout << "configurator " << session.nameOf(*cfg);
-    if (!summary.empty()) std::cout << ":\n" << summary;
-    else std::cout << ": nothing deployed by it\n";
+    if (!summary.empty())
+      std::cout << ":\n" << summary;
+    else
+      std::cout << ": nothing deployed by it\n";
   } else {
     std::cout << "no configurator runs\n";
   }
@@ -404,7 +404,8 @@ void onSignal(int) { interrupted = 1; }
 }  // namespace
 
 int events(const std::vector<std::string>& args) {
-  const auto a = parseArgs(args, {{"--follow", "--json"}, {"--from", "--wait", "--count", "--timeout"}});
+  const auto a =
+      parseArgs(args, {{"--follow", "--json"}, {"--from", "--wait", "--count", "--timeout"}});
   if (!a.positional.empty()) throw std::invalid_argument("events takes no arguments");
   const double wait = a.has("--wait") ? secondsValue("--wait", a.get("--wait")) : 3.0;
   const double timeout = a.has("--timeout") ? secondsValue("--timeout", a.get("--timeout")) : 0;
@@ -435,8 +436,8 @@ int events(const std::vector<std::string>& args) {
     if (a.has("--json")) {
       std::cout << "{\"number\":" << e.number
                 << ",\"time_us\":" << e.time.time_since_epoch().count()
-                << ",\"kind\":" << json::quote(e.kind) << ",\"text\":" << json::quote(e.text)
-                << "}" << std::endl;
+                << ",\"kind\":" << json::quote(e.kind) << ",\"text\":" << json::quote(e.text) << "}"
+                << std::endl;
     } else {
       std::cout << e.format() << std::endl;
     }

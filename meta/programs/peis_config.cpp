@@ -111,7 +111,8 @@ const std::vector<Subcommand> kSubcommands = {
     {"model", "model [--json | --yaml | --save FILE] [--local] [--wait S]",
      "print the live model of the ecology (the configurator's, else introspected here)",
      peis::meta::cli::model},
-    {"apply", "apply GOAL… [--goals FILE] [--as LABEL] [--dry-run] [--json] [--wait S] [--timeout S]",
+    {"apply",
+     "apply GOAL… [--goals FILE] [--as LABEL] [--dry-run] [--json] [--wait S] [--timeout S]",
      "plan and deploy: through the running configurator (its goal tuple config.goal.LABEL), "
      "else once from here",
      peis::meta::cli::apply},

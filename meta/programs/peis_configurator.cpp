@@ -43,8 +43,8 @@ long number(const std::string& option, const std::string& text, long low, long h
   long value = 0;
   const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), value);
   if (ec != std::errc() || ptr != text.data() + text.size() || value < low || value > high)
-    throw std::invalid_argument(option + " takes a whole number in " + std::to_string(low) +
-                                ".." + std::to_string(high));
+    throw std::invalid_argument(option + " takes a whole number in " + std::to_string(low) + ".." +
+                                std::to_string(high));
   return value;
 }
 

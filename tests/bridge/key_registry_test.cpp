@@ -1,7 +1,6 @@
 // Unit tests of the tinybridge's key registry and its YAML seed
 // (bridge/src/key_registry.h).
 #include "key_registry.h"
-#include "node_descriptors.h"
 
 #include <sqlite3.h>
 
@@ -14,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "node_descriptors.h"
 #include "peis/error.h"
 #include "support/error_matchers.h"
 #include "support/temp_dir.h"
@@ -121,8 +121,9 @@ TEST_CASE("the seed's node descriptors read inline or from a file with file:line
   REQUIRE(repository.count(5) == 1);
   CHECK(repository.at(5).functionalities.at(0).outputs.at(0).key == "Weight");
   TempDir dir;
-  dir.write("scale.yaml", "component: scale\nfunctionalities:\n  - {name: weigh, outputs: "
-                          "[{name: w, type: weight, key: Weight}]}\n");
+  dir.write("scale.yaml",
+            "component: scale\nfunctionalities:\n  - {name: weigh, outputs: "
+            "[{name: w, type: weight, key: Weight}]}\n");
   const auto fromFile = peis::bridge::loadNodeDescriptors(
       dir.write("seed.yaml", "keys:\n  Weight: 44\ndescriptors:\n  5: scale.yaml\n"));
   CHECK(fromFile.at(5).component == "scale");

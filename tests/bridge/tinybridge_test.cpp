@@ -302,7 +302,8 @@ TEST_CASE("tiny nodes publish their descriptors from the seed and the meta-level
                eco.env());
   REQUIRE(plan.wait(60s).has_value());
   INFO(plan.describe());
-  CHECK_THAT(plan.out(), Contains("cost 4.500 (optimal)") && Contains("plant/plant/shade-request") &&
+  CHECK_THAT(plan.out(), Contains("cost 4.500 (optimal)") &&
+                             Contains("plant/plant/shade-request") &&
                              Contains("<- plant.TiltValue  shade-request(plant), radio 4.000"));
 }
 

@@ -52,9 +52,9 @@ struct MetaEcology {
   // peis-synthetic as PEIS `name` with a descriptor of tests/meta/descriptors/.
   Process& synthetic(const std::string& name, const std::string& descriptor,
                      std::vector<std::string> extra = {}) {
-    std::vector<std::string> args = {"--peis-name", name, "--descriptor",
-                                     descriptorPath(descriptor), "--period-ms", "50",
-                                     "--freshness-ms", "300"};
+    std::vector<std::string> args = {
+        "--peis-name", name, "--descriptor",   descriptorPath(descriptor),
+        "--period-ms", "50", "--freshness-ms", "300"};
     args.insert(args.end(), extra.begin(), extra.end());
     return start(PEIS_SYNTHETIC_PATH, args);
   }

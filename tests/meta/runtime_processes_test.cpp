@@ -23,10 +23,10 @@
 #include "support/temp_dir.h"
 
 using namespace std::chrono_literals;
+using Catch::Matchers::Contains;
 using peis::PeisId;
 using peis::test::MetaEcology;
 using peis::test::waitFor;
-using Catch::Matchers::Contains;
 
 namespace {
 
@@ -137,7 +137,8 @@ TEST_CASE("introspection follows components and links and status and a saved mod
   INFO(peis::test::describe(text));
   CHECK(text.status == 0);
   CHECK_THAT(text.out, Contains("introspected by this command"));
-  CHECK_THAT(text.out, Contains("'c1'") && Contains("link mi-position <- " + target(a, "position")));
+  CHECK_THAT(text.out,
+             Contains("'c1'") && Contains("link mi-position <- " + target(a, "position")));
   CHECK_THAT(eco.config({"model", "--json"}).out, Contains("\"name\":\"pb\""));
   peis::test::TempDir dir("meta-model");
   const auto file = (dir.path / "ecology.yaml").string();
@@ -145,7 +146,8 @@ TEST_CASE("introspection follows components and links and status and a saved mod
   const auto offline = eco.config({"plan", "position@c1.mi-position", "--model", file});
   INFO(peis::test::describe(offline));
   CHECK(offline.status == 0);
-  CHECK_THAT(offline.out, Contains("cost 4.000 (optimal)") && Contains("c1.mi-position <- pb.position"));
+  CHECK_THAT(offline.out,
+             Contains("cost 4.000 (optimal)") && Contains("c1.mi-position <- pb.position"));
   // Planned on the live ecology, without a file.
   CHECK_THAT(eco.config({"plan", "position@c1.mi-position"}).out, Contains("<- pb.position"));
 }
@@ -159,9 +161,8 @@ TEST_CASE("the configurator publishes the live model and peis config model print
   eco.follow(cfg, "model.live");
   REQUIRE_WAIT(
       [&] {
-        const auto live = peis::meta::LiveModel::fromYaml(eco.value(cfg, "model.live") == "<absent>"
-                                                              ? ""
-                                                              : eco.value(cfg, "model.live"));
+        const auto live = peis::meta::LiveModel::fromYaml(
+            eco.value(cfg, "model.live") == "<absent>" ? "" : eco.value(cfg, "model.live"));
         const auto* p = live.find(c1);
         return p && p->status == "waiting";
       },
@@ -193,8 +194,12 @@ TEST_CASE("peis config apply deploys and a second apply changes nothing and show
   for (auto [id, pattern] : {std::pair{a, "**"}, {b, "**"}, {c1, "**"}}) eco.follow(id, pattern);
   peis::test::StateReport report([&] { return recordsText(eco) + eco.describeAll(); });
   // Nothing known yet: the model must have what apply plans with.
-  REQUIRE_WAIT([&] { return eco.value(c1, "component.descriptor") != "<absent>" &&
-                            eco.value(a, "component.descriptor") != "<absent>"; }, 30s);
+  REQUIRE_WAIT(
+      [&] {
+        return eco.value(c1, "component.descriptor") != "<absent>" &&
+               eco.value(a, "component.descriptor") != "<absent>";
+      },
+      30s);
   auto first = eco.config({"apply", "position@c1.mi-position"});
   INFO(peis::test::describe(first));
   REQUIRE(first.status == 0);
@@ -202,10 +207,15 @@ TEST_CASE("peis config apply deploys and a second apply changes nothing and show
   REQUIRE_WAIT([&] { return eco.value(c1, "status") == "running"; }, 30s);
   CHECK(eco.value(c1, "mi-position") == target(a, "position"));
   CHECK(eco.value(a, "producing.reqState") == "on");
-  REQUIRE_WAIT([&] { return recordsAre(eco, {{a, {"producing.reqState"}}, {c1, {"mi-position"}}}); });
+  REQUIRE_WAIT([&] {
+    return recordsAre(eco, {{a, {"producing.reqState"}}, {c1, {"mi-position"}}});
+  });
   std::map<std::string, std::uint64_t> seqnos;
-  for (auto [id, key] : {std::pair{c1, "mi-position"}, {a, "producing.reqState"},
-                         {c1, "config.owned"}, {c1, "config.lock"}, {a, "config.lock"}})
+  for (auto [id, key] : {std::pair{c1, "mi-position"},
+                         {a, "producing.reqState"},
+                         {c1, "config.owned"},
+                         {c1, "config.lock"},
+                         {a, "config.lock"}})
     seqnos[std::to_string(id) + key] = eco.seqno(id, key);
 
   // Idempotent: the same goals again write nothing at all.
@@ -213,8 +223,11 @@ TEST_CASE("peis config apply deploys and a second apply changes nothing and show
   INFO(peis::test::describe(second));
   CHECK(second.status == 0);
   CHECK_THAT(second.out, Contains("nothing to change"));
-  for (auto [id, key] : {std::pair{c1, "mi-position"}, {a, "producing.reqState"},
-                         {c1, "config.owned"}, {c1, "config.lock"}, {a, "config.lock"}})
+  for (auto [id, key] : {std::pair{c1, "mi-position"},
+                         {a, "producing.reqState"},
+                         {c1, "config.owned"},
+                         {c1, "config.lock"},
+                         {a, "config.lock"}})
     CHECK(eco.seqno(id, key) == seqnos[std::to_string(id) + key]);
 
   const auto shown = eco.config({"show"});
@@ -290,9 +303,8 @@ TEST_CASE("two configurators started at once: one deploys and the other stands b
   eco.synthetic("pa", "position-cheap.yaml");
   eco.synthetic("pb", "position-dear.yaml");
   eco.synthetic("c1", "consumer.yaml");
-  eco.start(peis::test::peisCliPath(),
-            {"node", "--peis-name", "poster", "--peis-set-tuple",
-             "config.goal.poster=position@c1.mi-position"});
+  eco.start(peis::test::peisCliPath(), {"node", "--peis-name", "poster", "--peis-set-tuple",
+                                        "config.goal.poster=position@c1.mi-position"});
   auto& one = eco.configurator({"--peis-name", "cfg1"});
   auto& two = eco.configurator({"--peis-name", "cfg2"});
   const PeisId a = eco.await("pa"), c1 = eco.await("c1");
@@ -316,8 +328,11 @@ TEST_CASE("two configurators started at once: one deploys and the other stands b
   (oneActive ? one : two).kill(SIGKILL);
   const PeisId survivor = oneActive ? cfg2 : cfg1;
   REQUIRE_WAIT([&] { return eco.value(survivor, "config.configurator") == "active"; }, 30s);
-  REQUIRE_WAIT([&] { return eco.value(survivor, "config.goal-status").find("deployed") !=
-                            std::string::npos; }, 30s);
+  REQUIRE_WAIT(
+      [&] {
+        return eco.value(survivor, "config.goal-status").find("deployed") != std::string::npos;
+      },
+      30s);
   CHECK(eco.seqno(c1, "mi-position") == linkSeqno);
 }
 
@@ -396,8 +411,9 @@ TEST_CASE("a PEIS that refuses the deployment is named and the configurator plan
           "[fault]") {
   MetaEcology eco("meta-refuse");
   // The observer offers the cheapest producer but refuses to be switched on.
-  peis::Component locator(*eco.observer, "locator",
-                          peis::Descriptor::fromFile(peis::test::descriptorPath("position-cheap.yaml")));
+  peis::Component locator(
+      *eco.observer, "locator",
+      peis::Descriptor::fromFile(peis::test::descriptorPath("position-cheap.yaml")));
   locator.start();
   eco.observer->setWriteGate([](const peis::Tuple& t, PeisId, const peis::WriteDecision& decide) {
     if (t.key != "producing.reqState") return false;
@@ -417,8 +433,12 @@ TEST_CASE("a PEIS that refuses the deployment is named and the configurator plan
   const auto applied = eco.config({"apply", "position@c1.mi-position"});
   INFO(peis::test::describe(applied));
   CHECK(applied.status == 0);
-  REQUIRE_WAIT([&] { return eco.value(c1, "mi-position") == target(b, "position") &&
-                            eco.value(c1, "status") == "running"; }, 30s);
+  REQUIRE_WAIT(
+      [&] {
+        return eco.value(c1, "mi-position") == target(b, "position") &&
+               eco.value(c1, "status") == "running";
+      },
+      30s);
   const auto text = eventsText(eco);
   CHECK_THAT(text, Contains("deploy-failed PEIS 'observer'") && Contains("out of service"));
   CHECK(!eco.observer->get("producing.reqState"));
@@ -446,21 +466,27 @@ TEST_CASE("a PEIS dead during a deployment is named and the configurator plans w
   const PeisId cfg = eco.await("cfg");
   for (auto id : {c1, cfg}) eco.follow(id, "**");
   peis::test::StateReport report([&] { return eventsText(eco) + eco.describeAll(); });
-  REQUIRE_WAIT([&] {
-    if (eco.value(cfg, "config.configurator") != "active" ||
-        eco.value(cfg, "model.live") == "<absent>")
-      return false;
-    const auto live = peis::meta::LiveModel::fromYaml(eco.value(cfg, "model.live"));
-    const auto* p = live.find(a);
-    return p && p->descriptor;
-  }, 30s);
+  REQUIRE_WAIT(
+      [&] {
+        if (eco.value(cfg, "config.configurator") != "active" ||
+            eco.value(cfg, "model.live") == "<absent>")
+          return false;
+        const auto live = peis::meta::LiveModel::fromYaml(eco.value(cfg, "model.live"));
+        const auto* p = live.find(a);
+        return p && p->descriptor;
+      },
+      30s);
   pa.kill(SIGSTOP);
   const auto applied = eco.config({"apply", "position@c1.mi-position"});
   pa.kill(SIGCONT);
   INFO(peis::test::describe(applied));
   CHECK(applied.status == 0);
-  REQUIRE_WAIT([&] { return eco.value(c1, "mi-position") == target(b, "position") &&
-                            eco.value(c1, "status") == "running"; }, 30s);
+  REQUIRE_WAIT(
+      [&] {
+        return eco.value(c1, "mi-position") == target(b, "position") &&
+               eco.value(c1, "status") == "running";
+      },
+      30s);
   CHECK_THAT(eventsText(eco), Contains("deploy-failed PEIS 'pa' (" + std::to_string(a) + ")") &&
                                   Contains("avoiding pa"));
 }
@@ -476,13 +502,18 @@ TEST_CASE("a producer that never writes its declared output is replaced", "[faul
   peis::test::StateReport report([&] { return eventsText(eco) + eco.describeAll(); });
   REQUIRE_WAIT([&] { return eco.value(cfg, "config.configurator") == "active"; }, 30s);
   CHECK(eco.config({"apply", "position@c1.mi-position"}).status == 0);
-  REQUIRE_WAIT([&] { return eco.value(c1, "mi-position") == target(b, "position") &&
-                            eco.value(c1, "status") == "running"; }, 60s);
+  REQUIRE_WAIT(
+      [&] {
+        return eco.value(c1, "mi-position") == target(b, "position") &&
+               eco.value(c1, "status") == "running";
+      },
+      60s);
   CHECK_THAT(eventsText(eco), Contains("failure pa/locator/locate: input position of c1 stale"));
 }
 
-TEST_CASE("kill -9 of a producer: the consumer runs again on another and healthy links stay untouched",
-          "[fault]") {
+TEST_CASE(
+    "kill -9 of a producer: the consumer runs again on another and healthy links stay untouched",
+    "[fault]") {
   MetaEcology eco("meta-kill");
   auto& pa = eco.synthetic("pa", "position-cheap.yaml");
   eco.synthetic("pb", "position-dear.yaml");
@@ -499,13 +530,20 @@ TEST_CASE("kill -9 of a producer: the consumer runs again on another and healthy
       eco.config({"apply", "position@c1.mi-position", "temperature@thermostat.mi-temperature"});
   INFO(peis::test::describe(applied));
   REQUIRE(applied.status == 0);
-  REQUIRE_WAIT([&] { return eco.value(c1, "mi-position") == target(a, "position") &&
-                            eco.value(c1, "status") == "running" &&
-                            eco.value(stat, "status") == "running"; }, 30s);
+  REQUIRE_WAIT(
+      [&] {
+        return eco.value(c1, "mi-position") == target(a, "position") &&
+               eco.value(c1, "status") == "running" && eco.value(stat, "status") == "running";
+      },
+      30s);
   const auto healthy = eco.seqno(stat, "mi-temperature");
   pa.kill(SIGKILL);
-  REQUIRE_WAIT([&] { return eco.value(c1, "mi-position") == target(b, "position") &&
-                            eco.value(c1, "status") == "running"; }, 30s);
+  REQUIRE_WAIT(
+      [&] {
+        return eco.value(c1, "mi-position") == target(b, "position") &&
+               eco.value(c1, "status") == "running";
+      },
+      30s);
   CHECK(eco.seqno(stat, "mi-temperature") == healthy);
   const auto text = eventsText(eco);
   CHECK_THAT(text, Contains("failure pa/locator/locate: PEIS pa is gone") &&
@@ -516,8 +554,7 @@ TEST_CASE("kill -9 of a producer: the consumer runs again on another and healthy
   CHECK_THAT(printed.out, Contains("failure      pa/locator/locate: PEIS pa is gone"));
 }
 
-TEST_CASE("a component frozen for less than the liveness period makes no false repair",
-          "[fault]") {
+TEST_CASE("a component frozen for less than the liveness period makes no false repair", "[fault]") {
   MetaEcology eco("meta-frozen", 3000ms);
   auto& pa = eco.synthetic("pa", "position-cheap.yaml");
   eco.synthetic("pb", "position-dear.yaml");
@@ -540,8 +577,9 @@ TEST_CASE("a component frozen for less than the liveness period makes no false r
   // Past the time a repair would have taken (grace after the input went
   // stale): no failure was seen, the link is the same.
   CHECK_FALSE(waitFor([&] { return anyEvent(eco, "failure"); },
-                      3000ms + 1000ms - std::chrono::duration_cast<std::chrono::milliseconds>(
-                                            std::chrono::steady_clock::now() - frozen)));
+                      3000ms + 1000ms -
+                          std::chrono::duration_cast<std::chrono::milliseconds>(
+                              std::chrono::steady_clock::now() - frozen)));
   CHECK(eco.seqno(c1, "mi-position") == link);
   CHECK(eco.value(c1, "mi-position") == target(a, "position"));
 }
@@ -560,13 +598,15 @@ TEST_CASE("goal tuples: bad lines refused and unknown types pending - both named
   const PeisId b = eco.await("pb"), c1 = eco.await("c1"), cfg = eco.await("cfg");
   for (auto id : {c1, cfg}) eco.follow(id, "**");
   peis::test::StateReport report([&] { return eventsText(eco) + eco.describeAll(); });
-  REQUIRE_WAIT([&] {
-    const auto status = eco.value(cfg, "config.goal-status");
-    return status.find("config.goal.bad") != std::string::npos &&
-           status.find("config.goal.unknown") != std::string::npos &&
-           status.find("config.goal.good") != std::string::npos &&
-           eco.value(c1, "mi-position") == target(b, "position");
-  }, 60s);
+  REQUIRE_WAIT(
+      [&] {
+        const auto status = eco.value(cfg, "config.goal-status");
+        return status.find("config.goal.bad") != std::string::npos &&
+               status.find("config.goal.unknown") != std::string::npos &&
+               status.find("config.goal.good") != std::string::npos &&
+               eco.value(c1, "mi-position") == target(b, "position");
+      },
+      60s);
   const auto status = eco.value(cfg, "config.goal-status");
   CHECK_THAT(status, Contains("config.goal.bad 1 refused: poster.config.goal.bad:2: "));
   CHECK_THAT(status, Contains("config.goal.unknown 1 pending: ") &&
@@ -582,9 +622,11 @@ TEST_CASE("goal tuples: bad lines refused and unknown types pending - both named
                              "position@c1.mi-position", "--peis-ecology", eco.ecology},
                             eco.environment());
   REQUIRE(again.wait(30s) == 0);
-  REQUIRE_WAIT([&] {
-    return eco.value(cfg, "config.goal-status").find("config.goal.good 2 deployed") !=
-           std::string::npos;
-  }, 30s);
+  REQUIRE_WAIT(
+      [&] {
+        return eco.value(cfg, "config.goal-status").find("config.goal.good 2 deployed") !=
+               std::string::npos;
+      },
+      30s);
   CHECK(eco.seqno(c1, "mi-position") == link);
 }

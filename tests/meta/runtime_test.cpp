@@ -245,8 +245,9 @@ TEST_CASE("goal tuples: one goal per line and bad lines named by tuple and line"
   CHECK(back->reason == "no producer of x");
   CHECK_FALSE(GoalStatusLine::parse("12.config.goal.x 3 maybe"));
   CHECK_FALSE(GoalStatusLine::parse("x.y 3 deployed"));
-  CHECK(parseGoalStatus("1.config.goal.a 1 deployed\nbad\n2.config.goal.b 4 pending: why\n")
-            .size() == 2);
+  CHECK(
+      parseGoalStatus("1.config.goal.a 1 deployed\nbad\n2.config.goal.b 4 pending: why\n").size() ==
+      2);
 }
 
 TEST_CASE("the monitor blames a dead PEIS or an error or a lost precondition at once",
@@ -285,8 +286,7 @@ TEST_CASE("the monitor blames a dead PEIS or an error or a lost precondition at 
   CHECK_THAT(failures[0].cause, Contains("sees(vac)"));
 }
 
-TEST_CASE("a stale input blames its producer only after the grace period",
-          "[unit][meta-runtime]") {
+TEST_CASE("a stale input blames its producer only after the grace period", "[unit][meta-runtime]") {
   auto live = home();
   const auto result = planHome(live);
   HealthMonitor monitor(MonitorPolicy{2000ms, 1000ms});
@@ -303,7 +303,7 @@ TEST_CASE("a stale input blames its producer only after the grace period",
   CHECK(monitor.observe(stale, t0 + 4900ms).empty());
   CHECK(monitor.observe(live, t0 + 4950ms).empty());  // it delivered again: evidence gone
   CHECK_FALSE(monitor.nextCheck());
-  CHECK(monitor.observe(stale, t0 + 6s).empty());     // waiting anew
+  CHECK(monitor.observe(stale, t0 + 6s).empty());  // waiting anew
   auto failures = monitor.observe(stale, t0 + 8s);
   REQUIRE(failures.size() == 1);
   CHECK(failures[0].kind == FailureKind::StaleInput);
@@ -332,8 +332,8 @@ TEST_CASE("failed parts come back after a hold and a silent producer is retried 
   auto live = home();
   FailedParts parts(1000ms, 30s);
   const auto t0 = MonitorClock::time_point(100s);
-  Failure gone{FailureKind::PeisGone, *InstanceSelector::parse("tracker/tracker/track", nullptr),
-               2, 1002, "gone"};
+  Failure gone{FailureKind::PeisGone, *InstanceSelector::parse("tracker/tracker/track", nullptr), 2,
+               1002, "gone"};
   CHECK(parts.add(gone, t0));
   CHECK_FALSE(parts.add(gone, t0));
   auto dead = live;
@@ -378,8 +378,8 @@ TEST_CASE("after a failure the planner avoids the failed instance", "[unit][meta
   const auto after = planHome(live, {*InstanceSelector::parse("tracker/tracker/track", nullptr)});
   REQUIRE(after.ok());
   CHECK(after.configuration.links.at(0).toString() == "vac.mi-position <- vac.odometry");
-  const auto producers = producersOf(before.configuration, live.toModel(),
-                                     before.configuration.links.back());
+  const auto producers =
+      producersOf(before.configuration, live.toModel(), before.configuration.links.back());
   REQUIRE(producers.size() == 1);
   CHECK(producers[0].functionality == "track");
 }
