@@ -35,9 +35,9 @@ Options:
   --link LINK         INFORMATION=PEIS.KEY: the static configuration that
                       serves needs, e.g. position(pippi)=tracker.position.Pippi
   --configurator KIND static (default: the --link table) or goal-tuples (post
-                      the needs as this PEIS's config.goal.<name> tuple for the
-                      meta-level's configurator; deployed when the consumers'
-                      meta tuples point somewhere)
+                      the needs as this PEIS's config.goal.<name> tuple for
+                      peis-configurator; deployed when its config.goal-status
+                      says so)
   --replans N         failures retried before giving up (default 2)
   --deploy-timeout S  seconds for a step's configuration (default 15)
   --step-timeout S    seconds for a step's action (default 600)

@@ -107,12 +107,20 @@ Model LiveModel::toModel(const LinkCosts& costs,
   model.linkCosts = costs;
   model.linkOverrides = overrides;
   std::set<std::string> aliveNames;
-  for (const auto& p : peis)
-    if (p.alive) aliveNames.insert(plannerName(p));
+  std::map<std::string, std::int64_t> latestGone;  // name -> the last life's incarnation
+  for (const auto& p : peis) {
+    if (p.alive) {
+      aliveNames.insert(plannerName(p));
+    } else {
+      auto& latest = latestGone[plannerName(p)];
+      latest = std::max(latest, p.incarnation);
+    }
+  }
   std::set<std::string> used;
   for (const auto& p : peis) {
     const auto name = plannerName(p);
     if (!p.alive && aliveNames.count(name)) continue;  // restarted under a new id
+    if (!p.alive && p.incarnation < latestGone[name]) continue;  // an earlier life
     PeisInfo info;
     info.id = p.id;
     info.name = used.count(name) ? name + "-" + std::to_string(p.id) : name;

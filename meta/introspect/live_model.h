@@ -63,7 +63,8 @@ struct LiveModel {
   // can still be consumers), alive or dead, radio for tiny nodes, the facts
   // of alive PEIS with their publisher. A PEIS whose name is not one plain
   // word for the planner is named `peis-<id>`; a dead PEIS whose name an
-  // alive one carries (a restart under a new id) is left out.
+  // alive one carries (a restart under a new id) is left out, and of dead
+  // PEIS of one name only the last life is kept.
   Model toModel(const LinkCosts& costs = {},
                 const std::vector<LinkCostOverride>& overrides = {}) const;
 

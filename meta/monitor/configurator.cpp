@@ -450,8 +450,11 @@ struct Configurator::Impl {
         return;
       }
       if (result.failedPeis == 0) break;
-      // Ask again without the PEIS that did not take the writes.
-      Failure refused{FailureKind::StaleInput,
+      // Ask again without the PEIS that did not take the writes: one that
+      // went away is used again when it is back (after the hold), one that
+      // refused only after the retry period.
+      const bool gone = !reachable(result.failedPeis);
+      Failure refused{gone ? FailureKind::PeisGone : FailureKind::StaleInput,
                       {},
                       result.failedPeis,
                       0,
@@ -487,6 +490,12 @@ struct Configurator::Impl {
     return result;
   }
 
+  bool reachable(int peis) const {
+    for (const auto& p : kernel.peers())
+      if (p.id == peis) return true;
+    return false;
+  }
+
   std::string avoiding() const {
     const auto selectors = failed.selectors();
     if (selectors.empty()) return "";
@@ -507,7 +516,8 @@ struct Configurator::Impl {
   }
 
   void correctDrift(const LiveModel& live, Clock::time_point now) {
-    if (!deployed || !monitor.active()) return;
+    // A configuration being repaired is not put back: the repair replaces it.
+    if (!deployed || !monitor.active() || repairPending) return;
     const auto changes = deployer.pendingChanges(deployed->configuration, live);
     if (changes.empty()) {
       driftSince.reset();
@@ -516,14 +526,23 @@ struct Configurator::Impl {
     if (now < driftQuietUntil) return;
     if (!driftSince) driftSince = now;
     if (now - *driftSince < options.driftHold) return;
-    std::size_t writes = 0;
-    for (const auto& c : changes) writes += c.writes.size();
-    events.record("drift", std::to_string(writes) + " deployed tuple(s) differ from generation's " +
-                               "values (changed by another writer, or a PEIS restarted): putting "
-                               "them back");
+    std::size_t writes = 0, records = 0;
+    for (const auto& c : changes) {
+      writes += c.writes.size();
+      records += c.recordChanges() ? 1 : 0;
+    }
+    events.record("drift", std::to_string(writes) + " deployed tuple(s) and " +
+                               std::to_string(records) +
+                               " record(s) differ from what was deployed (another writer, a PEIS "
+                               "restarted, a deployment cut short): putting them back");
     const auto result = deploy(deployed->configuration, live);
     // Nothing could be put back (a PEIS that does not answer): look again later.
     if (!result.ok || result.writes == 0) driftQuietUntil = now + options.grace;
+    // A PEIS of the configuration is gone: that is for a repair.
+    if (!result.ok && result.failedPeis != 0) {
+      repairPending = true;
+      repairRetryAt = now;
+    }
     driftSince.reset();
   }
 

@@ -79,9 +79,16 @@ TEST_CASE("the live model becomes the planner's model", "[unit][meta-runtime]") 
   live.peis.push_back(gone);
   auto odd = livePeis(10, "has space");  // not a plain word for the planner
   live.peis.push_back(odd);
+  for (int life : {11, 12}) {  // two gone lives of one PEIS: only the last is kept
+    auto old = livePeis(life, "old");
+    old.alive = false;
+    live.peis.push_back(old);
+  }
   live.peis[0].radio = true;
   const auto model = live.toModel();
-  REQUIRE(model.peis.size() == 4);
+  REQUIRE(model.peis.size() == 5);
+  CHECK(model.findPeis("old")->id == 12);
+  CHECK_FALSE(model.findPeis("old")->alive);
   CHECK(model.findPeis("vac")->id == 3);
   CHECK(model.findPeis("peis-10") != nullptr);
   CHECK(model.findPeis("cam")->radio);
