@@ -119,7 +119,7 @@ Model LiveModel::toModel(const LinkCosts& costs,
   std::set<std::string> used;
   for (const auto& p : peis) {
     const auto name = plannerName(p);
-    if (!p.alive && aliveNames.count(name)) continue;  // restarted under a new id
+    if (!p.alive && aliveNames.count(name)) continue;            // restarted under a new id
     if (!p.alive && p.incarnation < latestGone[name]) continue;  // an earlier life
     PeisInfo info;
     info.id = p.id;

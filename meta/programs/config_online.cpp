@@ -252,7 +252,6 @@ int apply(const std::vector<std::string>& args) {
     return answer->state == GoalState::Deployed ? 0 : 1;
   }
   // No configurator: plan here and deploy once (nobody watches it afterwards).
-  std::vector<std::string> problems;
   Goals goals = Goals::fromArguments(lines);
   ConfigurationPlanner planner(session.live.toModel());
   PlanOptions options;
@@ -451,7 +450,12 @@ int events(const std::vector<std::string>& args) {
     pending[*n] = ConfigEvent::parse(*n, t.ts_user, t.data);
   };
   const Pattern pattern(std::string(kEventPrefix) + "*", *cfg);
-  session.kernel->onChange(pattern, take);
+  // The callback uses this function's locals: removed before they go.
+  struct Unregister {
+    Kernel& kernel;
+    CallbackHandle handle;
+    ~Unregister() { kernel.removeCallback(handle); }
+  } unregister{*session.kernel, session.kernel->onChange(pattern, take)};
   session.kernel->subscribe(pattern);
   // What is there now: wait until the configurator's key list is all here.
   const auto until = Clock::now() + toMs(wait);

@@ -409,6 +409,7 @@ TEST_CASE("a configurator killed in the middle of a deployment: the next one mak
 
 TEST_CASE("a PEIS that refuses the deployment is named and the configurator plans without it",
           "[fault]") {
+  peis::test::Recorder history;  // every value of c1's meta input (outlives the observer)
   MetaEcology eco("meta-refuse");
   // The observer offers the cheapest producer but refuses to be switched on.
   peis::Component locator(
@@ -425,7 +426,6 @@ TEST_CASE("a PEIS that refuses the deployment is named and the configurator plan
   eco.configurator({"--peis-name", "cfg"});
   const PeisId b = eco.await("pb"), c1 = eco.await("c1"), cfg = eco.await("cfg");
   for (auto id : {b, c1, cfg}) eco.follow(id, "**");
-  peis::test::Recorder history;  // every value of c1's meta input
   eco.observer->onChange(peis::Pattern::exact(c1, "mi-position"),
                          [&](const peis::Tuple& t) { history.add(t.data); });
   peis::test::StateReport report([&] { return eventsText(eco) + eco.describeAll(); });
