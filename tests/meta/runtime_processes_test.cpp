@@ -477,9 +477,11 @@ TEST_CASE("a PEIS dead during a deployment is named and the configurator plans w
       },
       30s);
   pa.kill(SIGSTOP);
-  const auto applied = eco.config({"apply", "position@c1.mi-position"});
+  // Routes through the frozen PEIS stay until its links time out: the
+  // answer may take a liveness period to come round.
+  const auto applied = eco.config({"apply", "position@c1.mi-position", "--timeout", "60"}, 90s);
   pa.kill(SIGCONT);
-  INFO(peis::test::describe(applied));
+  INFO(peis::test::describe(applied) << eventsText(eco));
   CHECK(applied.status == 0);
   REQUIRE_WAIT(
       [&] {
