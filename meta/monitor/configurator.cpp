@@ -208,7 +208,7 @@ struct Configurator::Impl {
 
     std::string reason;
     bool mustSwitch = false;
-    if (sourcesText != deployedSources || (!deployed && !sources.empty())) {
+    if (sourcesText != deployedSources) {
       reason = "goals";
       mustSwitch = true;
     }
@@ -411,6 +411,7 @@ struct Configurator::Impl {
     if (mustSwitch && reason != "goals") repairPending = true;
     repairRetryAt = Clock::now() + options.grace;
     LiveModel current = live;
+    std::string lastError;
     for (int attempt = 0; attempt < 3; ++attempt) {
       const auto started = Clock::now();
       Planned planned = plan(sources);
@@ -449,6 +450,7 @@ struct Configurator::Impl {
         publishDeployed(result.generation, sources);
         return;
       }
+      lastError = result.error;
       if (result.failedPeis == 0) break;
       // Ask again without the PEIS that did not take the writes: one that
       // went away is used again when it is back (after the hold), one that
@@ -467,7 +469,16 @@ struct Configurator::Impl {
       current = introspector.snapshot();
       mustSwitch = true;
     }
-    deployedSources.clear();  // not deployed: try again at the next look
+    // Not deployed: the goal tuples wait, and the configurator tries again when
+    // the ecology changes, or after the grace period.
+    std::vector<GoalStatusLine> waiting;
+    for (const auto& src : sources)
+      waiting.push_back(
+          {src.owner, src.key, src.seqno, GoalState::Pending, "not deployed: " + lastError});
+    publishStatus(waiting);
+    deployedSources = sourcesText;
+    repairPending = true;
+    repairRetryAt = Clock::now() + options.grace;
   }
 
   // Deploys and records the outcome as events (deployed, deploy-failed, warnings).
