@@ -81,13 +81,7 @@ std::optional<std::string> registryNameProblem(std::string_view name) {
 }
 
 RegistrySeed parseRegistrySeed(const std::string& yamlText, const std::string& origin) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(yamlText);
-  } catch (const YAML::Exception& e) {
-    throw Error(ErrorCode::InvalidConfig,
-                origin + ":" + std::to_string(e.mark.line + 1) + ": broken YAML: " + e.msg);
-  }
+  const YAML::Node root = loadYaml(yamlText, origin);
   RegistrySeed seed;
   if (!root || root.IsNull()) return seed;
   if (!root.IsMap()) fail(origin, root, "the seed must be a mapping with 'keys' and 'nodes'");

@@ -22,13 +22,7 @@ namespace {
 
 NodeDescriptors parseNodeDescriptors(const std::string& yamlText, const std::string& origin,
                                      const std::string& baseDir) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(yamlText);
-  } catch (const YAML::Exception& e) {
-    throw Error(ErrorCode::InvalidConfig,
-                origin + ":" + std::to_string(e.mark.line + 1) + ": broken YAML: " + e.msg);
-  }
+  const YAML::Node root = loadYaml(yamlText, origin);
   NodeDescriptors descriptors;
   if (!root || !root.IsMap() || !root["descriptors"] || root["descriptors"].IsNull())
     return descriptors;
