@@ -6,6 +6,7 @@
 #pragma once
 
 #include <limits>
+#include <utility>
 #include <vector>
 
 namespace peis::meta {
@@ -42,12 +43,28 @@ class LmCut {
   double compute(const std::vector<double>& costs, const std::vector<char>& isTrue,
                  const std::vector<int>& goal, double bound, std::vector<Landmark>* landmarks);
 
+  // After a compute() that returned h below its bound: for each action a,
+  // how much more than h any plan that uses a costs at least (every plan
+  // pays h on the landmarks found, and its actions' residual costs besides:
+  // a's own, a chain that supports a's preconditions, and a chain from a's
+  // effect to the goal). kInfinity for actions that cannot be used. The
+  // caller may drop actions for which h + this reaches what it can afford.
+  void usageCosts(std::vector<double>& out);
+
+  // Fresh h^max each round (the original LM-cut) or h^max updated from the
+  // cut only (faster per round; other supporters on ties, weaker bounds).
+  bool incrementalHmax = false;
+
   // h^max alone (cheaper, weaker); kInfinity when unreachable.
   double hmax(const std::vector<double>& costs, const std::vector<char>& isTrue,
               const std::vector<int>& goal);
 
  private:
+  void setGoal(const std::vector<int>& goal);
   void computeHmax(const std::vector<char>& isTrue);
+  void updateHmax(const std::vector<int>& cut);
+  void push(double value, int fact);
+  std::pair<double, int> pop();
 
   const RelaxedTask& task_;
   int init_ = 0, goalFact_ = 0;            // the artificial facts
@@ -56,9 +73,12 @@ class LmCut {
   std::vector<std::vector<int>> pre_;      // per action, with init for empty ones
   std::vector<std::vector<int>> add_;
   // Work arrays.
-  std::vector<double> cost_, hmax_;
-  std::vector<int> unsatisfied_, pcf_;
-  std::vector<char> inZone_, reached_;
+  std::vector<double> cost_, hmax_, supporterCost_, toGoal_;
+  std::vector<int> unsatisfied_, pcf_, stack_, cut_;
+  std::vector<char> status_;
+  std::vector<long> popped_;  // when each fact was last popped (ties of supporters)
+  long pops_ = 0;
+  std::vector<std::pair<double, int>> queue_;  // a binary heap, smallest first
 };
 
 }  // namespace peis::meta

@@ -241,17 +241,23 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
   std::int64_t nodes = 0;
   Limits stop{limits, &nodes};
   const int slotCount = static_cast<int>(part_.slots.size());
-  std::vector<double> costs(task_.actions.size()), residual(task_.actions.size());
+  const int instCount = static_cast<int>(part_.insts.size());
+  const int actionCount = static_cast<int>(task_.actions.size());
+  std::vector<double> costs(actionCount), residual(actionCount), usage;
+  // Options (link actions) dropped in the current branch, by reduced cost.
+  std::vector<int> optionBanned(actionCount, 0);
   std::vector<int> goal;
   for (int s = 0; s < slotCount; ++s) {
     if (part_.slots[s].goal) goal.push_back(s);
   }
   const std::vector<char> none;
+  auto optionViable = [&](int s, int k) {
+    return optionBanned[linkBase_[s] + k] == 0 && state.viable(part_.slots[s].options[k].inst);
+  };
   // The remaining task's action costs: paid actions are free, actions that
   // can no longer be part of this branch are unavailable.
   auto fillCosts = [&] {
-    const int insts = static_cast<int>(part_.insts.size());
-    for (int i = 0; i < insts; ++i) {
+    for (int i = 0; i < instCount; ++i) {
       costs[i] = state.active[i] ? 0.0 : state.viable(i) ? part_.insts[i].cost : kInfinity;
     }
     for (int s = 0; s < slotCount; ++s) {
@@ -261,7 +267,7 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
         if (state.assigned[s] >= 0) {
           c = state.assigned[s] == k ? 0.0 : kInfinity;
         } else {
-          c = state.viable(slot.options[k].inst) ? slot.options[k].link : kInfinity;
+          c = optionViable(s, k) ? slot.options[k].link : kInfinity;
         }
         costs[linkBase_[s] + k] = c;
       }
@@ -269,9 +275,11 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
   };
   // Incremental LM-cut: the parent's landmarks that no decision paid for
   // still count (dead when all their actions became unavailable); new cuts
-  // are found on the costs they leave.
+  // are found on the costs they leave. `complete` is set when LM-cut ran to
+  // the end (then usageCosts() may be asked).
   auto bound = [&](const std::vector<Landmark>& inherited, std::vector<Landmark>& kept,
-                   double limit) {
+                   double limit, bool* complete) {
+    *complete = false;
     fillCosts();
     kept.clear();
     double h = 0;
@@ -291,11 +299,14 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
       kept.push_back(l);
       if (h >= limit) return h;
     }
-    return h + lmcut.compute(residual, none, goal, limit - h, &kept);
+    const double rest = lmcut.compute(residual, none, goal, limit - h, &kept);
+    *complete = h + rest < limit;
+    return h + rest;
   };
   double incumbent = best.found ? best.cost : kInfinity;
   std::vector<Landmark> rootLandmarks;
-  const double rootBound = bound({}, rootLandmarks, incumbent);
+  bool complete = false;
+  const double rootBound = bound({}, rootLandmarks, incumbent, &complete);
   best.lowerBound = std::min(rootBound, incumbent);
   if (rootBound == kInfinity) {  // no configuration at all
     best.optimal = !best.found;
@@ -305,8 +316,7 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
   auto viableCount = [&](int s, int* only) {
     int count = 0;
     for (int k = 0; k < static_cast<int>(part_.slots[s].options.size()); ++k) {
-      const int p = part_.slots[s].options[k].inst;
-      if (state.viable(p) && !state.closesCycle(s, p)) {
+      if (optionViable(s, k) && !state.closesCycle(s, part_.slots[s].options[k].inst)) {
         ++count;
         *only = k;
       }
@@ -337,7 +347,7 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
           double activeLink = kInfinity;
           for (int k = 0; k < static_cast<int>(slot.options.size()); ++k) {
             const auto& o = slot.options[k];
-            if (!state.viable(o.inst)) continue;
+            if (!optionViable(s, k)) continue;
             cheapest = std::min(cheapest, o.link);
             if (state.active[o.inst] && o.link < activeLink) {
               activeLink = o.link;
@@ -368,52 +378,114 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
     }
     best.active = state.active;
   };
+  // Reduced-cost fixing: an instance or an option whose every use costs at
+  // least the incumbent is dropped for this branch. Returns how many.
+  struct Bans {
+    std::vector<int> instances, options;
+  };
+  auto fix = [&](double budget, Bans& bans) {
+    lmcut.usageCosts(usage);
+    int dropped = 0;
+    for (int i = 0; i < instCount; ++i) {
+      if (state.active[i] || !state.viable(i) || usage[i] < budget) continue;
+      ++state.banned[i];
+      bans.instances.push_back(i);
+      ++dropped;
+    }
+    for (int s = 0; s < slotCount; ++s) {
+      if (state.assigned[s] >= 0) continue;
+      for (int k = 0; k < static_cast<int>(part_.slots[s].options.size()); ++k) {
+        const int a = linkBase_[s] + k;
+        if (!optionViable(s, k) || usage[a] < budget) continue;
+        ++optionBanned[a];
+        bans.options.push_back(a);
+        ++dropped;
+      }
+    }
+    return dropped;
+  };
+  auto lift = [&](Bans& bans) {
+    for (int i : bans.instances) --state.banned[i];
+    for (int a : bans.options) --optionBanned[a];
+  };
   std::function<void(const std::vector<Landmark>&)> dfs = [&](const std::vector<Landmark>& parent) {
     ++nodes;
     if (stop.hit()) return;
     std::vector<Step> trail;
-    if (!propagate(trail) || state.g >= incumbent - kEpsilon) {
-      unwind(trail);
-      return;
-    }
-    // The most constrained open slot.
-    int pick = -1, fewest = 0;
-    for (int s = 0; s < slotCount; ++s) {
-      if (state.required[s] == 0 || state.assigned[s] >= 0) continue;
-      int only = -1;
-      const int count = viableCount(s, &only);
-      if (pick < 0 || count < fewest) {
-        pick = s;
-        fewest = count;
-      }
-    }
-    if (pick < 0) {
-      record();
-      unwind(trail);
-      return;
-    }
+    Bans bans;
     std::vector<Landmark> landmarks;
-    const double h = bound(parent, landmarks, incumbent - state.g - kEpsilon);
-    if (state.g + h >= incumbent - kEpsilon) {
+    const std::vector<Landmark>* inherited = &parent;
+    std::vector<Landmark> scratch;
+    int pick = -1;
+    auto leave = [&] {
       unwind(trail);
-      return;
+      lift(bans);
+    };
+    for (int round = 0;; ++round) {
+      if (!propagate(trail) || state.g >= incumbent - kEpsilon) return leave();
+      // The most constrained open slot.
+      pick = -1;
+      int fewest = 0;
+      for (int s = 0; s < slotCount; ++s) {
+        if (state.required[s] == 0 || state.assigned[s] >= 0) continue;
+        int only = -1;
+        const int count = viableCount(s, &only);
+        if (pick < 0 || count < fewest) {
+          pick = s;
+          fewest = count;
+        }
+      }
+      if (pick < 0) {
+        record();
+        return leave();
+      }
+      const double budget = incumbent - state.g - kEpsilon;
+      const double h = bound(*inherited, landmarks, budget, &complete);
+      if (h >= budget) return leave();
+      // Drop what cannot be part of a better configuration; when that
+      // forces choices, propagate and bound again on the same landmarks.
+      if (!complete || round >= 3 || fix(budget - h, bans) == 0) break;
+      scratch = landmarks;
+      inherited = &scratch;
     }
     const auto& slot = part_.slots[pick];
     std::vector<std::pair<double, int>> ks;
     for (int k = 0; k < static_cast<int>(slot.options.size()); ++k) {
       const auto& o = slot.options[k];
-      if (!state.viable(o.inst) || state.closesCycle(pick, o.inst)) continue;
+      if (!optionViable(pick, k) || state.closesCycle(pick, o.inst)) continue;
       ks.push_back({o.link + (state.active[o.inst] ? 0.0 : estimate_[o.inst]), k});
     }
     std::stable_sort(ks.begin(), ks.end(),
                      [](const auto& a, const auto& b) { return a.first < b.first; });
-    for (const auto& [score, k] : ks) {
-      const bool activated = state.apply(pick, k);
-      dfs(landmarks);
-      state.undo(pick, k, activated);
-      if (stop.stopped) break;
+    // When no cycle can form, a configuration in which `pick` takes option
+    // k while the producer of an earlier sibling with a link no dearer is
+    // active is never better than that sibling's (switch the slot to it):
+    // such producers are banned in later siblings' subtrees.
+    std::vector<int> bannedHere;
+    for (std::size_t j = 0; j < ks.size(); ++j) {
+      const int k = ks[j].second;
+      const auto& o = slot.options[k];
+      bool dominated = false;
+      if (dag_) {
+        for (std::size_t i = 0; i < j && !dominated; ++i) {
+          const auto& earlier = slot.options[ks[i].second];
+          if (earlier.link > o.link || earlier.inst == o.inst) continue;
+          if (state.active[earlier.inst]) dominated = true;
+        }
+      }
+      if (!dominated && state.viable(o.inst)) {
+        const bool activated = state.apply(pick, k);
+        dfs(landmarks);
+        state.undo(pick, k, activated);
+        if (stop.stopped) break;
+      }
+      if (dag_ && !state.active[o.inst]) {
+        ++state.banned[o.inst];
+        bannedHere.push_back(o.inst);
+      }
     }
-    unwind(trail);
+    for (int i : bannedHere) --state.banned[i];
+    leave();
   };
   dfs(rootLandmarks);
   best.nodes += nodes;
