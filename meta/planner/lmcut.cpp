@@ -1,85 +1,134 @@
 // LM-cut: h^max, a cut between the facts reached from the start and the goal
 // zone of the justification graph, the cut's cheapest action cost added to h
-// and subtracted from the cut's actions; then h^max again, updated
-// incrementally from the cut's actions only (the values can only fall), as in
-// Fast Downward's implementation.
+// and subtracted from the cut's actions; then h^max afresh, until the goal
+// costs nothing more. The supporter of an action (its precondition of
+// maximal h^max) is, among equals, the one reached last: with free actions
+// expanded at once, that is the one behind the longest free chain, which
+// gives markedly stronger bounds on configuration problems than the first.
 #include "planner/lmcut.h"
 
 #include <algorithm>
 
 namespace peis::meta {
 namespace {
+
 constexpr double kEpsilon = 1e-9;
+
+// Compressed rows from per-row lists.
+void flatten(const std::vector<std::vector<int>>& rows, std::vector<int>& start,
+             std::vector<int>& items) {
+  start.assign(1, 0);
+  items.clear();
+  for (const auto& row : rows) {
+    items.insert(items.end(), row.begin(), row.end());
+    start.push_back(static_cast<int>(items.size()));
+  }
 }
 
-LmCut::LmCut(const RelaxedTask& task) : task_(task) {
+}  // namespace
+
+void LmCut::Landmarks::truncate(int n) {
+  if (n >= size()) return;
+  cost.resize(n);
+  start.resize(n + 1);
+  actions.resize(start[n]);
+}
+
+LmCut::LmCut(const RelaxedTask& task) {
   init_ = task.facts;
   goalFact_ = task.facts + 1;
   const int facts = task.facts + 2;
-  const int actions = static_cast<int>(task.actions.size()) + 1;  // + the goal action
-  preOf_.assign(facts, {});
-  addedBy_.assign(facts, {});
-  pre_.resize(actions);
-  add_.resize(actions);
-  for (int a = 0; a + 1 < actions; ++a) {
-    pre_[a] = task.actions[a].pre;
-    std::sort(pre_[a].begin(), pre_[a].end());
-    pre_[a].erase(std::unique(pre_[a].begin(), pre_[a].end()), pre_[a].end());
-    if (pre_[a].empty()) pre_[a].push_back(init_);
-    add_[a] = task.actions[a].add;
+  goalAction_ = static_cast<int>(task.actions.size());
+  const int actions = goalAction_ + 1;
+  std::vector<std::vector<int>> pre(actions), add(actions), uses(facts), adders(facts);
+  for (int a = 0; a < goalAction_; ++a) {
+    pre[a] = task.actions[a].pre;
+    std::sort(pre[a].begin(), pre[a].end());
+    pre[a].erase(std::unique(pre[a].begin(), pre[a].end()), pre[a].end());
+    if (pre[a].empty()) pre[a].push_back(init_);
+    add[a] = task.actions[a].add;
+    for (int f : pre[a]) uses[f].push_back(a);
+    for (int f : add[a]) adders[f].push_back(a);
   }
-  add_[actions - 1] = {goalFact_};
-  for (int a = 0; a < actions; ++a) {
-    for (int f : add_[a]) addedBy_[f].push_back(a);
-  }
-  for (int a = 0; a + 1 < actions; ++a) {
-    for (int f : pre_[a]) preOf_[f].push_back(a);
-  }
-  pre_[actions - 1] = {init_};
-  preOf_[init_].push_back(actions - 1);
+  add[goalAction_] = {goalFact_};
+  adders[goalFact_].push_back(goalAction_);
+  flatten(pre, preStart_, pre_);
+  flatten(add, addStart_, add_);
+  flatten(uses, useStart_, use_);
+  flatten(adders, adderStart_, adder_);
+  isGoal_.assign(facts, 0);
   cost_.resize(actions);
-  hmax_.resize(facts);
   supporterCost_.resize(actions);
   unsatisfied_.resize(actions);
   pcf_.resize(actions);
+  hmax_.resize(facts);
   status_.resize(facts);
   toGoal_.resize(facts);
-  popped_.resize(facts);
 }
 
 void LmCut::setGoal(const std::vector<int>& goal) {
-  const int goalAction = static_cast<int>(pre_.size()) - 1;
-  // The goal action is the last entry of its preconditions' lists.
-  for (int f : pre_[goalAction]) preOf_[f].pop_back();
-  pre_[goalAction] = goal;
-  std::sort(pre_[goalAction].begin(), pre_[goalAction].end());
-  pre_[goalAction].erase(std::unique(pre_[goalAction].begin(), pre_[goalAction].end()),
-                         pre_[goalAction].end());
-  if (pre_[goalAction].empty()) pre_[goalAction].push_back(init_);
-  for (int f : pre_[goalAction]) preOf_[f].push_back(goalAction);
+  for (int f : goal_) isGoal_[f] = 0;
+  goal_ = goal;
+  std::sort(goal_.begin(), goal_.end());
+  goal_.erase(std::unique(goal_.begin(), goal_.end()), goal_.end());
+  if (goal_.empty()) goal_.push_back(init_);
+  for (int f : goal_) isGoal_[f] = 1;
+}
+
+template <typename F>
+void LmCut::forEachUse(int fact, F&& f) const {
+  for (int i = useStart_[fact]; i < useStart_[fact + 1]; ++i) f(use_[i]);
+  if (isGoal_[fact]) f(goalAction_);
 }
 
 void LmCut::push(double value, int fact) {
   queue_.push_back({value, fact});
-  std::push_heap(queue_.begin(), queue_.end(), std::greater<>());
+  // Sift up.
+  std::size_t i = queue_.size() - 1;
+  const Entry e = queue_[i];
+  while (i > 0) {
+    const std::size_t parent = (i - 1) / 2;
+    if (!(e < queue_[parent])) break;
+    queue_[i] = queue_[parent];
+    i = parent;
+  }
+  queue_[i] = e;
 }
 
-std::pair<double, int> LmCut::pop() {
-  std::pop_heap(queue_.begin(), queue_.end(), std::greater<>());
-  const auto top = queue_.back();
+LmCut::Entry LmCut::pop() {
+  const Entry top = queue_[0];
+  const Entry last = queue_.back();
   queue_.pop_back();
+  const std::size_t n = queue_.size();
+  if (n > 0) {
+    // Sift the last entry down from the root.
+    std::size_t i = 0;
+    while (true) {
+      std::size_t child = 2 * i + 1;
+      if (child >= n) break;
+      if (child + 1 < n && queue_[child + 1] < queue_[child]) ++child;
+      if (!(queue_[child] < last)) break;
+      queue_[i] = queue_[child];
+      i = child;
+    }
+    queue_[i] = last;
+  }
   return top;
 }
 
 void LmCut::computeHmax(const std::vector<char>& isTrue) {
   const int facts = static_cast<int>(hmax_.size());
-  const int actions = static_cast<int>(pre_.size());
+  const int actions = goalAction_ + 1;
   std::fill(hmax_.begin(), hmax_.end(), kInfinity);
-  for (int a = 0; a < actions; ++a) {
-    unsatisfied_[a] = static_cast<int>(pre_[a].size());
+  for (int a = 0; a < goalAction_; ++a) {
+    unsatisfied_[a] = preStart_[a + 1] - preStart_[a];
     pcf_[a] = -1;
   }
+  unsatisfied_[goalAction_] = static_cast<int>(goal_.size());
+  pcf_[goalAction_] = -1;
+  (void)actions;
   queue_.clear();
+  level_.clear();
   hmax_[init_] = 0;
   push(0, init_);
   for (int f = 0; f < facts - 2 && !isTrue.empty(); ++f) {
@@ -88,93 +137,68 @@ void LmCut::computeHmax(const std::vector<char>& isTrue) {
       push(0, f);
     }
   }
-  while (!queue_.empty()) {
-    const auto [h, f] = pop();
-    if (h > hmax_[f]) continue;
-    popped_[f] = ++pops_;
-    for (int a : preOf_[f]) {
-      if (--unsatisfied_[a] != 0) continue;
-      pcf_[a] = f;  // popped last: a precondition of maximal h^max
+  // Facts reached by a free action at the value being expanded need no
+  // heap: they are expanded next, from `level_` (last in, first out).
+  while (!level_.empty() || !queue_.empty()) {
+    double h;
+    int f;
+    if (!level_.empty()) {
+      f = level_.back();
+      level_.pop_back();
+      h = hmax_[f];
+    } else {
+      const Entry e = pop();
+      if (e.value > hmax_[e.fact]) continue;
+      h = e.value;
+      f = e.fact;
+    }
+    forEachUse(f, [&](int a) {
+      // Facts come in order of h^max: the last precondition is a maximal one.
+      if (--unsatisfied_[a] != 0) return;
+      pcf_[a] = f;
       supporterCost_[a] = h;
-      if (cost_[a] == kInfinity) continue;
-      const double value = h + cost_[a];
-      for (int g : add_[a]) {
+      const double c = cost_[a];
+      if (c == kInfinity) return;
+      const double value = h + c;
+      for (int i = addStart_[a]; i < addStart_[a + 1]; ++i) {
+        const int g = add_[i];
         if (value < hmax_[g]) {
           hmax_[g] = value;
-          push(value, g);
+          if (c == 0) {
+            level_.push_back(g);
+          } else {
+            push(value, g);
+          }
         }
       }
-    }
-  }
-}
-
-// After the costs of `cut` fell: h^max values can only fall, starting from
-// the cut's effects; an action whose supporter fell may get a new supporter.
-void LmCut::updateHmax(const std::vector<int>& cut) {
-  queue_.clear();
-  for (int a : cut) {
-    const double value = supporterCost_[a] + cost_[a];
-    for (int g : add_[a]) {
-      if (value < hmax_[g]) {
-        hmax_[g] = value;
-        push(value, g);
-      }
-    }
-  }
-  while (!queue_.empty()) {
-    const auto [h, f] = pop();
-    if (h > hmax_[f]) continue;
-    popped_[f] = ++pops_;
-    for (int a : preOf_[f]) {
-      if (pcf_[a] != f || supporterCost_[a] <= h) continue;
-      // The supporter fell: the precondition of maximal h^max now; among
-      // equals the one popped last (what a fresh h^max would choose).
-      int best = pre_[a][0];
-      for (int p : pre_[a]) {
-        if (hmax_[p] > hmax_[best] || (hmax_[p] == hmax_[best] && popped_[p] > popped_[best])) {
-          best = p;
-        }
-      }
-      const double old = supporterCost_[a];
-      pcf_[a] = best;
-      supporterCost_[a] = hmax_[best];
-      if (supporterCost_[a] >= old || cost_[a] == kInfinity) continue;
-      const double value = supporterCost_[a] + cost_[a];
-      for (int g : add_[a]) {
-        if (value < hmax_[g]) {
-          hmax_[g] = value;
-          push(value, g);
-        }
-      }
-    }
+    });
   }
 }
 
 double LmCut::hmax(const std::vector<double>& costs, const std::vector<char>& isTrue,
                    const std::vector<int>& goal) {
   setGoal(goal);
-  const int goalAction = static_cast<int>(pre_.size()) - 1;
   std::copy(costs.begin(), costs.end(), cost_.begin());
-  cost_[goalAction] = 0;
+  cost_[goalAction_] = 0;
   computeHmax(isTrue);
   return hmax_[goalFact_];
 }
 
 double LmCut::compute(const std::vector<double>& costs, const std::vector<char>& isTrue,
                       const std::vector<int>& goal, double bound) {
-  return compute(costs, isTrue, goal, bound, nullptr);
+  return compute(costs, isTrue, goal, bound, nullptr, nullptr);
 }
 
 double LmCut::compute(const std::vector<double>& costs, const std::vector<char>& isTrue,
-                      const std::vector<int>& goal, double bound,
-                      std::vector<Landmark>* landmarks) {
+                      const std::vector<int>& goal, double bound, Landmarks* landmarks,
+                      std::vector<int>* found) {
   double h = hmax(costs, isTrue, goal);
   if (h == kInfinity) return kInfinity;
   h = 0;
   const int facts = static_cast<int>(hmax_.size());
   enum : char { kUnseen = 0, kGoalZone = 1, kBeforeZone = 2 };
   while (hmax_[goalFact_] > kEpsilon) {
-    // Goal zone: facts from which the goal is reached by zero-cost actions
+    // Goal zone: facts from which the goal is reached by free actions
     // through their supporters.
     std::fill(status_.begin(), status_.end(), kUnseen);
     status_[goalFact_] = kGoalZone;
@@ -182,8 +206,9 @@ double LmCut::compute(const std::vector<double>& costs, const std::vector<char>&
     while (!stack_.empty()) {
       const int f = stack_.back();
       stack_.pop_back();
-      for (int a : addedBy_[f]) {
-        if (pcf_[a] < 0 || cost_[a] > kEpsilon) continue;
+      for (int i = adderStart_[f]; i < adderStart_[f + 1]; ++i) {
+        const int a = adder_[i];
+        if (unsatisfied_[a] != 0 || cost_[a] > kEpsilon) continue;
         const int p = pcf_[a];
         if (status_[p] == kUnseen) {
           status_[p] = kGoalZone;
@@ -208,42 +233,39 @@ double LmCut::compute(const std::vector<double>& costs, const std::vector<char>&
     while (!stack_.empty()) {
       const int f = stack_.back();
       stack_.pop_back();
-      for (int a : preOf_[f]) {
-        if (pcf_[a] != f) continue;
-        bool inCut = false;
-        for (int g : add_[a]) {
-          if (status_[g] == kGoalZone) {
-            inCut = true;
-            break;
+      forEachUse(f, [&](int a) {
+        if (pcf_[a] != f || unsatisfied_[a] != 0) return;
+        for (int i = addStart_[a]; i < addStart_[a + 1]; ++i) {
+          if (status_[add_[i]] == kGoalZone) {
+            cut_.push_back(a);
+            return;
           }
         }
-        if (inCut) {
-          cut_.push_back(a);
-          continue;
-        }
-        for (int g : add_[a]) {
+        for (int i = addStart_[a]; i < addStart_[a + 1]; ++i) {
+          const int g = add_[i];
           if (status_[g] == kUnseen) {
             status_[g] = kBeforeZone;
             stack_.push_back(g);
           }
         }
-      }
+      });
     }
     double cheapest = kInfinity;
     for (int a : cut_) cheapest = std::min(cheapest, cost_[a]);
     if (cut_.empty() || cheapest == kInfinity) break;  // cannot happen on a reachable goal
     h += cheapest;
-    if (landmarks) landmarks->push_back({cut_, cheapest});
+    if (landmarks) {
+      found->push_back(landmarks->size());
+      landmarks->actions.insert(landmarks->actions.end(), cut_.begin(), cut_.end());
+      landmarks->start.push_back(static_cast<int>(landmarks->actions.size()));
+      landmarks->cost.push_back(cheapest);
+    }
     if (h >= bound) return h;
     for (int a : cut_) {
       cost_[a] -= cheapest;
       if (cost_[a] < kEpsilon) cost_[a] = 0;
     }
-    if (incrementalHmax) {
-      updateHmax(cut_);
-    } else {
-      computeHmax(isTrue);
-    }
+    computeHmax(isTrue);
   }
   return h;
 }
@@ -255,29 +277,34 @@ void LmCut::usageCosts(std::vector<double>& out) {
   queue_.clear();
   toGoal_[goalFact_] = 0;
   push(0, goalFact_);
-  while (!queue_.empty()) {
-    const auto [d, g] = pop();
-    if (d > toGoal_[g]) continue;
-    for (int b : addedBy_[g]) {
-      if (pcf_[b] < 0 || cost_[b] == kInfinity) continue;
-      const double value = d + cost_[b];
-      for (int f : pre_[b]) {
-        if (value < toGoal_[f]) {
-          toGoal_[f] = value;
-          push(value, f);
-        }
+  auto relax = [&](int b, double d) {
+    if (unsatisfied_[b] != 0 || cost_[b] == kInfinity) return;
+    const double value = d + cost_[b];
+    auto lower = [&](int f) {
+      if (value < toGoal_[f]) {
+        toGoal_[f] = value;
+        push(value, f);
       }
+    };
+    if (b == goalAction_) {
+      for (int f : goal_) lower(f);
+    } else {
+      for (int i = preStart_[b]; i < preStart_[b + 1]; ++i) lower(pre_[i]);
     }
+  };
+  while (!queue_.empty()) {
+    const Entry e = pop();
+    if (e.value > toGoal_[e.fact]) continue;
+    for (int i = adderStart_[e.fact]; i < adderStart_[e.fact + 1]; ++i) relax(adder_[i], e.value);
   }
-  const int actions = static_cast<int>(pre_.size()) - 1;  // without the goal action
-  out.resize(actions);
-  for (int a = 0; a < actions; ++a) {
-    if (pcf_[a] < 0 || cost_[a] == kInfinity) {
+  out.resize(goalAction_);
+  for (int a = 0; a < goalAction_; ++a) {
+    if (unsatisfied_[a] != 0 || cost_[a] == kInfinity) {
       out[a] = kInfinity;
       continue;
     }
     double above = kInfinity;
-    for (int g : add_[a]) above = std::min(above, toGoal_[g]);
+    for (int i = addStart_[a]; i < addStart_[a + 1]; ++i) above = std::min(above, toGoal_[add_[i]]);
     out[a] = supporterCost_[a] + cost_[a] + above;
   }
 }

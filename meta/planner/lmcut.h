@@ -6,7 +6,6 @@
 #pragma once
 
 #include <limits>
-#include <utility>
 #include <vector>
 
 namespace peis::meta {
@@ -33,52 +32,65 @@ class LmCut {
   double compute(const std::vector<double>& costs, const std::vector<char>& isTrue,
                  const std::vector<int>& goal, double bound = kInfinity);
 
-  // The same, and appends each cut found (its actions and its cost) to
-  // `landmarks`: a cost partitioning that a caller can reuse after actions
-  // became free or unavailable (incremental LM-cut).
-  struct Landmark {
+  // Cuts (disjunctive action landmarks) with their costs, in one flat list:
+  // a cost partitioning that a caller can reuse after actions became free or
+  // unavailable (incremental LM-cut). Append-only, truncated by the caller.
+  struct Landmarks {
     std::vector<int> actions;
-    double cost = 0;
+    std::vector<int> start{0};  // cut i is actions[start[i] .. start[i + 1])
+    std::vector<double> cost;
+    int size() const { return static_cast<int>(cost.size()); }
+    const int* begin(int i) const { return actions.data() + start[i]; }
+    const int* end(int i) const { return actions.data() + start[i + 1]; }
+    void truncate(int n);
   };
+  // The same, and appends each cut found to `landmarks` and its index to `found`.
   double compute(const std::vector<double>& costs, const std::vector<char>& isTrue,
-                 const std::vector<int>& goal, double bound, std::vector<Landmark>* landmarks);
+                 const std::vector<int>& goal, double bound, Landmarks* landmarks,
+                 std::vector<int>* found);
 
   // After a compute() that returned h below its bound: for each action a,
-  // how much more than h any plan that uses a costs at least (every plan
-  // pays h on the landmarks found, and its actions' residual costs besides:
-  // a's own, a chain that supports a's preconditions, and a chain from a's
-  // effect to the goal). kInfinity for actions that cannot be used. The
-  // caller may drop actions for which h + this reaches what it can afford.
+  // how much more than h any plan that uses a costs at least. Every plan
+  // pays h on the cuts found and its actions' residual costs besides (an
+  // LP-dual argument): a's own, a support of a's preconditions (at least
+  // their residual h^max) and a chain from a's effect to the goal (a plan
+  // without redundant actions uses the effect). kInfinity for actions that
+  // cannot be used. The caller may drop actions for which h + this reaches
+  // what it can afford.
   void usageCosts(std::vector<double>& out);
-
-  // Fresh h^max each round (the original LM-cut) or h^max updated from the
-  // cut only (faster per round; other supporters on ties, weaker bounds).
-  bool incrementalHmax = false;
 
   // h^max alone (cheaper, weaker); kInfinity when unreachable.
   double hmax(const std::vector<double>& costs, const std::vector<char>& isTrue,
               const std::vector<int>& goal);
 
  private:
+  struct Entry {
+    double value;
+    int fact;
+    bool operator<(const Entry& o) const {
+      return value < o.value || (value == o.value && fact < o.fact);
+    }
+  };
   void setGoal(const std::vector<int>& goal);
   void computeHmax(const std::vector<char>& isTrue);
-  void updateHmax(const std::vector<int>& cut);
+  // Calls f(action) for each action with `fact` as a precondition.
+  template <typename F>
+  void forEachUse(int fact, F&& f) const;
   void push(double value, int fact);
-  std::pair<double, int> pop();
+  Entry pop();
 
-  const RelaxedTask& task_;
-  int init_ = 0, goalFact_ = 0;            // the artificial facts
-  std::vector<std::vector<int>> preOf_;    // fact -> actions having it as precondition
-  std::vector<std::vector<int>> addedBy_;  // fact -> actions adding it
-  std::vector<std::vector<int>> pre_;      // per action, with init for empty ones
-  std::vector<std::vector<int>> add_;
+  int init_ = 0, goalFact_ = 0, goalAction_ = 0;  // the artificial facts and action
+  // Flat lists (compressed rows): preconditions and effects per action,
+  // and per fact the actions that need it (the goal action apart) and
+  // the actions that add it.
+  std::vector<int> preStart_, pre_, addStart_, add_, useStart_, use_, adderStart_, adder_;
+  std::vector<int> goal_;       // the goal action's preconditions
+  std::vector<char> isGoal_;    // per fact: a precondition of the goal action
   // Work arrays.
   std::vector<double> cost_, hmax_, supporterCost_, toGoal_;
-  std::vector<int> unsatisfied_, pcf_, stack_, cut_;
+  std::vector<int> unsatisfied_, pcf_, stack_, level_, cut_;
   std::vector<char> status_;
-  std::vector<long> popped_;  // when each fact was last popped (ties of supporters)
-  long pops_ = 0;
-  std::vector<std::pair<double, int>> queue_;  // a binary heap, smallest first
+  std::vector<Entry> queue_;  // a binary heap, smallest first
 };
 
 }  // namespace peis::meta

@@ -2,6 +2,7 @@
 #include "planner/search.h"
 
 #include <algorithm>
+#include <cmath>
 #include <functional>
 #include <numeric>
 #include <queue>
@@ -102,6 +103,32 @@ struct PartSearch::State {
   }
 };
 
+namespace {
+
+// The largest u with every cost an integer multiple of u (a denominator up
+// to 1000, a common one up to 10^6), or 0 when there is none.
+double costUnit(const std::vector<double>& costs) {
+  constexpr double kTolerance = 1e-9;
+  auto integral = [&](double x) { return std::abs(x - std::round(x)) <= kTolerance * std::max(1.0, std::abs(x)); };
+  long long common = 1;  // the least common denominator
+  for (double c : costs) {
+    long long d = 1;
+    while (d <= 1000 && !integral(c * static_cast<double>(d))) ++d;
+    if (d > 1000) return 0;
+    common = std::lcm(common, d);
+    if (common > 1000000) return 0;
+  }
+  long long divisor = 0;
+  for (double c : costs) {
+    const double scaled = c * static_cast<double>(common);
+    if (std::abs(scaled) > 1e15) return 0;
+    divisor = std::gcd(divisor, static_cast<long long>(std::llround(scaled)));
+  }
+  return divisor > 0 ? static_cast<double>(divisor) / static_cast<double>(common) : 0;
+}
+
+}  // namespace
+
 PartSearch::PartSearch(const Part& part) : part_(part) {
   const int slots = static_cast<int>(part.slots.size());
   const int insts = static_cast<int>(part.insts.size());
@@ -129,6 +156,17 @@ PartSearch::PartSearch(const Part& part) : part_(part) {
       if (colour[i] == 0) visit(i);
     }
     dag_ = !cyclic;
+  }
+  // Costs that are all multiples of one unit (integers, tenths) make every
+  // configuration's cost one too: a better one is at least a unit cheaper.
+  {
+    std::vector<double> all;
+    for (const auto& inst : part.insts) all.push_back(inst.cost);
+    for (const auto& slot : part.slots) {
+      for (const auto& o : slot.options) all.push_back(o.link);
+    }
+    const double unit = costUnit(all);
+    slack_ = unit > 0 ? unit * (1 - 1e-6) : kEpsilon;
   }
   // h_add of each instance (generalised Dijkstra), to try cheap producers first.
   estimate_.assign(insts, kInfinity);
@@ -237,7 +275,9 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
   State state(part_);
   state.dag = dag_;
   LmCut lmcut(task_);
-  using Landmark = LmCut::Landmark;
+  // Every cut found in the search, a stack: cuts found below a node are
+  // dropped when the search leaves it. Nodes keep the indices of theirs.
+  LmCut::Landmarks pool;
   std::int64_t nodes = 0;
   Limits stop{limits, &nodes};
   const int slotCount = static_cast<int>(part_.slots.size());
@@ -277,34 +317,35 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
   // still count (dead when all their actions became unavailable); new cuts
   // are found on the costs they leave. `complete` is set when LM-cut ran to
   // the end (then usageCosts() may be asked).
-  auto bound = [&](const std::vector<Landmark>& inherited, std::vector<Landmark>& kept,
-                   double limit, bool* complete) {
+  auto bound = [&](const std::vector<int>& inherited, std::vector<int>& kept, double limit,
+                   bool* complete) {
     *complete = false;
     fillCosts();
     kept.clear();
     double h = 0;
     residual = costs;
-    for (const auto& l : inherited) {
+    for (int l : inherited) {
       bool hit = false, dead = true;
-      for (int a : l.actions) {
-        hit = hit || costs[a] == 0;
-        dead = dead && costs[a] == kInfinity;
+      for (const int* a = pool.begin(l); a != pool.end(l); ++a) {
+        hit = hit || costs[*a] == 0;
+        dead = dead && costs[*a] == kInfinity;
       }
       if (hit) continue;
       if (dead) return kInfinity;
-      h += l.cost;
-      for (int a : l.actions) {
-        if (residual[a] != kInfinity) residual[a] = std::max(0.0, residual[a] - l.cost);
+      const double c = pool.cost[l];
+      h += c;
+      for (const int* a = pool.begin(l); a != pool.end(l); ++a) {
+        if (residual[*a] != kInfinity) residual[*a] = std::max(0.0, residual[*a] - c);
       }
       kept.push_back(l);
       if (h >= limit) return h;
     }
-    const double rest = lmcut.compute(residual, none, goal, limit - h, &kept);
+    const double rest = lmcut.compute(residual, none, goal, limit - h, &pool, &kept);
     *complete = h + rest < limit;
     return h + rest;
   };
   double incumbent = best.found ? best.cost : kInfinity;
-  std::vector<Landmark> rootLandmarks;
+  std::vector<int> rootLandmarks;
   bool complete = false;
   const double rootBound = bound({}, rootLandmarks, incumbent, &complete);
   best.lowerBound = std::min(rootBound, incumbent);
@@ -377,6 +418,12 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
       if (state.required[s] > 0) best.chosen[s] = state.assigned[s];
     }
     best.active = state.active;
+    // A new incumbent is often one local move from a better one.
+    std::int64_t moves = best.nodes;
+    best = polish(std::move(best), limits);
+    nodes += best.nodes - moves;
+    best.nodes = moves;
+    incumbent = best.cost;
   };
   // Reduced-cost fixing: an instance or an option whose every use costs at
   // least the incumbent is dropped for this branch. Returns how many.
@@ -408,22 +455,27 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
     for (int i : bans.instances) --state.banned[i];
     for (int a : bans.options) --optionBanned[a];
   };
-  std::function<void(const std::vector<Landmark>&)> dfs = [&](const std::vector<Landmark>& parent) {
+  std::function<void(const std::vector<int>&)> dfs = [&](const std::vector<int>& parent) {
     ++nodes;
     if (stop.hit()) return;
     std::vector<Step> trail;
     Bans bans;
-    std::vector<Landmark> landmarks;
-    const std::vector<Landmark>* inherited = &parent;
-    std::vector<Landmark> scratch;
+    const int poolSize = pool.size();
+    std::vector<int> landmarks;
+    const std::vector<int>* inherited = &parent;
+    std::vector<int> scratch;
     int pick = -1;
     auto leave = [&] {
       unwind(trail);
       lift(bans);
+      pool.truncate(poolSize);
     };
+    // Propagate, pick the most constrained open slot, bound; then drop what
+    // cannot be part of a better configuration, and when that forces
+    // choices, propagate and bound once more (on the same landmarks).
     for (int round = 0;; ++round) {
-      if (!propagate(trail) || state.g >= incumbent - kEpsilon) return leave();
-      // The most constrained open slot.
+      const std::size_t assignedBefore = trail.size();
+      if (!propagate(trail) || state.g >= incumbent - slack_) return leave();
       pick = -1;
       int fewest = 0;
       for (int s = 0; s < slotCount; ++s) {
@@ -439,12 +491,11 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
         record();
         return leave();
       }
-      const double budget = incumbent - state.g - kEpsilon;
+      if (round > 0 && trail.size() == assignedBefore) break;  // the bans forced nothing
+      const double budget = incumbent - state.g - slack_;
       const double h = bound(*inherited, landmarks, budget, &complete);
       if (h >= budget) return leave();
-      // Drop what cannot be part of a better configuration; when that
-      // forces choices, propagate and bound again on the same landmarks.
-      if (!complete || round >= 3 || fix(budget - h, bans) == 0) break;
+      if (!complete || round >= 1 || fix(budget - h, bans) == 0) break;
       scratch = landmarks;
       inherited = &scratch;
     }
@@ -458,33 +509,33 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
     std::stable_sort(ks.begin(), ks.end(),
                      [](const auto& a, const auto& b) { return a.first < b.first; });
     // When no cycle can form, a configuration in which `pick` takes option
-    // k while the producer of an earlier sibling with a link no dearer is
-    // active is never better than that sibling's (switch the slot to it):
-    // such producers are banned in later siblings' subtrees.
+    // k while the producer of an earlier sibling with a link no dearer runs
+    // is never better than one of that sibling's (switch the slot to it):
+    // such a sibling is skipped when its producer runs already, and its
+    // producer is banned in the subtree otherwise.
     std::vector<int> bannedHere;
     for (std::size_t j = 0; j < ks.size(); ++j) {
-      const int k = ks[j].second;
-      const auto& o = slot.options[k];
+      const auto& o = slot.options[ks[j].second];
       bool dominated = false;
-      if (dag_) {
-        for (std::size_t i = 0; i < j && !dominated; ++i) {
-          const auto& earlier = slot.options[ks[i].second];
-          if (earlier.link > o.link || earlier.inst == o.inst) continue;
-          if (state.active[earlier.inst]) dominated = true;
+      bannedHere.clear();
+      for (std::size_t i = 0; i < j && dag_ && !dominated; ++i) {
+        const auto& earlier = slot.options[ks[i].second];
+        if (earlier.link > o.link || earlier.inst == o.inst) continue;
+        if (state.active[earlier.inst]) {
+          dominated = true;
+        } else {
+          ++state.banned[earlier.inst];
+          bannedHere.push_back(earlier.inst);
         }
       }
       if (!dominated && state.viable(o.inst)) {
-        const bool activated = state.apply(pick, k);
+        const bool activated = state.apply(pick, ks[j].second);
         dfs(landmarks);
-        state.undo(pick, k, activated);
-        if (stop.stopped) break;
+        state.undo(pick, ks[j].second, activated);
       }
-      if (dag_ && !state.active[o.inst]) {
-        ++state.banned[o.inst];
-        bannedHere.push_back(o.inst);
-      }
+      for (int i : bannedHere) --state.banned[i];
+      if (stop.stopped) break;
     }
-    for (int i : bannedHere) --state.banned[i];
     leave();
   };
   dfs(rootLandmarks);

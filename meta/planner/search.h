@@ -60,6 +60,9 @@ class PartSearch {
   // A valid configuration fast (greedy dive with backtracking); found=false
   // when none exists or the limits came first.
   PartSolution first(const SearchLimits& limits);
+  // A cheaper valid configuration near `start` by local moves
+  // (local_search.cpp); `start` itself when none is found or it is !found.
+  PartSolution polish(PartSolution start, const SearchLimits& limits);
   // Improves `incumbent` (which may be !found) to the optimum within limits.
   PartSolution improve(PartSolution incumbent, const SearchLimits& limits);
 
@@ -70,6 +73,7 @@ class PartSearch {
   std::vector<int> linkBase_;     // first link action of each slot
   std::vector<double> estimate_;  // h_add of each instance, for option order
   bool dag_ = false;              // no cycle of producers can form
+  double slack_ = 0;              // how much cheaper a better configuration is at least
 };
 
 }  // namespace peis::meta::detail
