@@ -68,6 +68,9 @@ class PartSearch {
 
  private:
   struct State;
+  // A depth-first dive with backtracking; options by estimate, or by
+  // `guide` (a value per link action of task_) when given.
+  PartSolution dive(const SearchLimits& limits, const std::vector<double>* guide);
   const Part& part_;
   RelaxedTask task_;
   std::vector<int> linkBase_;     // first link action of each slot
