@@ -129,14 +129,15 @@ void LmCut::computeHmax(const std::vector<char>& isTrue) {
   (void)actions;
   queue_.clear();
   level_.clear();
+  // The start: init and the true facts, at 0, expanded in index order.
   hmax_[init_] = 0;
-  push(0, init_);
-  for (int f = 0; f < facts - 2 && !isTrue.empty(); ++f) {
+  for (int f = facts - 3; f >= 0 && !isTrue.empty(); --f) {
     if (isTrue[f]) {
       hmax_[f] = 0;
-      push(0, f);
+      level_.push_back(f);
     }
   }
+  level_.push_back(init_);
   // Facts reached by a free action at the value being expanded need no
   // heap: they are expanded next, from `level_` (last in, first out).
   while (!level_.empty() || !queue_.empty()) {

@@ -290,41 +290,76 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
   std::vector<double> costs(actionCount), residual(actionCount), usage;
   // Options (link actions) dropped in the current branch, by reduced cost.
   std::vector<int> optionBanned(actionCount, 0);
-  std::vector<int> goal;
-  for (int s = 0; s < slotCount; ++s) {
-    if (part_.slots[s].goal) goal.push_back(s);
-  }
-  const std::vector<char> none;
   auto optionViable = [&](int s, int k) {
     return optionBanned[linkBase_[s] + k] == 0 && state.viable(part_.slots[s].options[k].inst);
   };
   // The remaining task's action costs: paid actions are free, actions that
   // can no longer be part of this branch are unavailable.
-  auto fillCosts = [&] {
+  // Only the scope's own actions are available: its instances and the links
+  // into its slots (the other scopes' are solved apart).
+  std::vector<int> slotScope(slotCount, 0), instScope(instCount, 0);
+  auto fillCosts = [&](int scopeId) {
     for (int i = 0; i < instCount; ++i) {
-      costs[i] = state.active[i] ? 0.0 : state.viable(i) ? part_.insts[i].cost : kInfinity;
+      costs[i] = state.active[i]                                   ? 0.0
+                 : !state.viable(i) || (scopeId >= 0 && instScope[i] != scopeId) ? kInfinity
+                                                                   : part_.insts[i].cost;
     }
     for (int s = 0; s < slotCount; ++s) {
       const auto& slot = part_.slots[s];
+      const bool mine = scopeId < 0 || slotScope[s] == scopeId;
       for (int k = 0; k < static_cast<int>(slot.options.size()); ++k) {
         double c;
         if (state.assigned[s] >= 0) {
           c = state.assigned[s] == k ? 0.0 : kInfinity;
         } else {
-          c = optionViable(s, k) ? slot.options[k].link : kInfinity;
+          c = mine && optionViable(s, k) ? slot.options[k].link : kInfinity;
         }
         costs[linkBase_[s] + k] = c;
       }
     }
   };
-  // Incremental LM-cut: the parent's landmarks that no decision paid for
-  // still count (dead when all their actions became unavailable); new cuts
-  // are found on the costs they leave. `complete` is set when LM-cut ran to
-  // the end (then usageCosts() may be asked).
+  // The bound of a scope: LM-cut on the task of filling its open slots,
+  // the running instances' outputs given (their own open inputs are open
+  // slots too), on the costs that the parent's landmarks leave: those that
+  // no decision paid for still count (dead when all their actions became
+  // unavailable), new cuts are found on the rest (incremental LM-cut).
+  // `complete` is set when LM-cut ran to the end (then usageCosts() may be
+  // asked). `scopeId` < 0: every open slot.
+  std::vector<int> openGoal;
+  std::vector<char> given(slotCount + instCount, 0);
   auto bound = [&](const std::vector<int>& inherited, std::vector<int>& kept, double limit,
-                   bool* complete) {
+                   int scopeId, bool* complete) {
     *complete = false;
-    fillCosts();
+    fillCosts(scopeId);
+    openGoal.clear();
+    for (int s = 0; s < slotCount; ++s) {
+      if (state.required[s] > 0 && state.assigned[s] < 0 && (scopeId < 0 || slotScope[s] == scopeId)) {
+        openGoal.push_back(s);
+      }
+    }
+    // Given: what runs or is linked already, as far as the scope can use it
+    // (the running producers of its slots, the linked inputs of its
+    // instances); all of it for the whole part.
+    if (scopeId < 0) {
+      for (int i = 0; i < instCount; ++i) given[slotCount + i] = state.active[i];
+      for (int t = 0; t < slotCount; ++t) given[t] = state.assigned[t] >= 0;
+    } else {
+      std::fill(given.begin(), given.end(), 0);
+      for (int t = 0; t < slotCount; ++t) {
+        if (slotScope[t] != scopeId) continue;
+        if (state.assigned[t] >= 0) given[t] = 1;
+        for (const auto& o : part_.slots[t].options) {
+          if (state.active[o.inst]) given[slotCount + o.inst] = 1;
+        }
+      }
+      for (int i = 0; i < instCount; ++i) {
+        if (instScope[i] != scopeId) continue;
+        if (state.active[i]) given[slotCount + i] = 1;
+        for (int t : part_.insts[i].slots) {
+          if (state.assigned[t] >= 0) given[t] = 1;
+        }
+      }
+    }
     kept.clear();
     double h = 0;
     residual = costs;
@@ -344,14 +379,14 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
       kept.push_back(l);
       if (h >= limit) return h;
     }
-    const double rest = lmcut.compute(residual, none, goal, limit - h, &pool, &kept);
+    const double rest = lmcut.compute(residual, given, openGoal, limit - h, &pool, &kept);
     *complete = h + rest < limit;
     return h + rest;
   };
   double incumbent = best.found ? best.cost : kInfinity;
   std::vector<int> rootLandmarks;
   bool complete = false;
-  const double rootBound = bound({}, rootLandmarks, incumbent, &complete);
+  const double rootBound = bound({}, rootLandmarks, incumbent, -1, &complete);
   best.lowerBound = std::min(rootBound, incumbent);
   if (rootBound == kInfinity) {  // no configuration at all
     best.optimal = !best.found;
@@ -373,6 +408,18 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
       best.nodes += guided.nodes;
     }
   }
+  // The search is over scopes: the whole part, or (below an AND node) one
+  // of the independent components its open slots fell into. Slots and
+  // instances carry the id of the innermost scope they belong to.
+  struct Scope {
+    int id = 0;
+    double limit = 0;       // a configuration is better when its g is below this
+    std::size_t start = 0;  // the decisions before this scope began
+    bool found = false;
+    std::vector<std::pair<int, int>> best;  // the decisions of the best one found
+  };
+  int nextScope = 1;
+  auto inScope = [&](const Scope& scope, int s) { return slotScope[s] == scope.id; };
   auto viableCount = [&](int s, int* only) {
     int count = 0;
     for (int k = 0; k < static_cast<int>(part_.slots[s].options.size()); ++k) {
@@ -383,19 +430,29 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
     }
     return count;
   };
-  // Assignments that need no choice: a slot with one possible producer; and,
-  // when no cycle is possible, a slot whose cheapest link comes from a
-  // producer already running (using it can never cost more).
+  // Every assignment on the current path, in order.
   struct Step {
     int slot, option;
     bool activated;
   };
-  auto propagate = [&](std::vector<Step>& trail) {
+  std::vector<Step> decisions;
+  auto assign = [&](int s, int k) { decisions.push_back({s, k, state.apply(s, k)}); };
+  auto undoTo = [&](std::size_t size) {
+    while (decisions.size() > size) {
+      const auto step = decisions.back();
+      decisions.pop_back();
+      state.undo(step.slot, step.option, step.activated);
+    }
+  };
+  // Assignments that need no choice: a slot with one possible producer; and,
+  // when no cycle is possible, a slot whose cheapest link comes from a
+  // producer already running (using it can never cost more).
+  auto propagate = [&](const Scope& scope) {
     bool changed = true;
     while (changed) {
       changed = false;
       for (int s = 0; s < slotCount; ++s) {
-        if (state.required[s] == 0 || state.assigned[s] >= 0) continue;
+        if (state.required[s] == 0 || state.assigned[s] >= 0 || !inScope(scope, s)) continue;
         const auto& slot = part_.slots[s];
         int only = -1;
         const int count = viableCount(s, &only);
@@ -417,16 +474,11 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
           if (activeBest >= 0 && activeLink <= cheapest) choice = activeBest;
         }
         if (choice < 0) continue;
-        trail.push_back({s, choice, state.apply(s, choice)});
+        assign(s, choice);
         changed = true;
       }
     }
     return true;
-  };
-  auto unwind = [&](std::vector<Step>& trail) {
-    for (auto it = trail.rbegin(); it != trail.rend(); ++it)
-      state.undo(it->slot, it->option, it->activated);
-    trail.clear();
   };
   auto record = [&] {
     incumbent = state.g;
@@ -444,22 +496,39 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
     best.nodes = moves;
     incumbent = best.cost;
   };
-  // Reduced-cost fixing: an instance or an option whose every use costs at
-  // least the incumbent is dropped for this branch. Returns how many.
+  // Every open slot of the scope is filled: a better configuration of it.
+  auto leaf = [&](Scope& scope) {
+    if (scope.id == 0) {
+      record();
+      scope.limit = incumbent;
+      return;
+    }
+    scope.found = true;
+    scope.limit = state.g;
+    scope.best.clear();
+    for (std::size_t i = scope.start; i < decisions.size(); ++i) {
+      scope.best.push_back({decisions[i].slot, decisions[i].option});
+    }
+  };
+  // Reduced-cost fixing: an instance or an option of the scope whose every
+  // use costs at least what the scope can afford is dropped for this
+  // branch. Returns how many.
   struct Bans {
     std::vector<int> instances, options;
   };
-  auto fix = [&](double budget, Bans& bans) {
+  auto fix = [&](const Scope& scope, double budget, Bans& bans) {
     lmcut.usageCosts(usage);
     int dropped = 0;
     for (int i = 0; i < instCount; ++i) {
-      if (state.active[i] || !state.viable(i) || usage[i] < budget) continue;
+      if (instScope[i] != scope.id || state.active[i] || !state.viable(i) || usage[i] < budget) {
+        continue;
+      }
       ++state.banned[i];
       bans.instances.push_back(i);
       ++dropped;
     }
     for (int s = 0; s < slotCount; ++s) {
-      if (state.assigned[s] >= 0) continue;
+      if (state.assigned[s] >= 0 || !inScope(scope, s)) continue;
       for (int k = 0; k < static_cast<int>(part_.slots[s].options.size()); ++k) {
         const int a = linkBase_[s] + k;
         if (!optionViable(s, k) || usage[a] < budget) continue;
@@ -474,18 +543,179 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
     for (int i : bans.instances) --state.banned[i];
     for (int a : bans.options) --optionBanned[a];
   };
-  std::function<void(const std::vector<int>&)> dfs = [&](const std::vector<int>& parent) {
+  // The independent components of the scope's open slots: slots joined
+  // through the producers that could still fill them (not yet running),
+  // those producers' own inputs, writers of one key, and clashing slots.
+  // Only when no cycle can form (else a choice in one could close a cycle
+  // through another).
+  std::vector<int> parent(slotCount + instCount), reached;
+  std::vector<int> groupOfRoot(slotCount + instCount, -1);
+  std::vector<char> seen(slotCount + instCount, 0);
+  auto findRoot = [&](int x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  auto unite = [&](int a, int b) { parent[findRoot(a)] = findRoot(b); };
+  auto components = [&](const Scope& scope) {
+    std::vector<std::vector<int>> groups;  // slots first, then instances (offset slotCount)
+    if (!dag_) return groups;
+    reached.clear();
+    for (int s = 0; s < slotCount; ++s) {
+      if (state.required[s] == 0 || state.assigned[s] >= 0 || !inScope(scope, s)) continue;
+      parent[s] = s;
+      seen[s] = 1;
+      reached.push_back(s);
+    }
+    const std::size_t roots = reached.size();
+    for (std::size_t next = 0; next < reached.size(); ++next) {
+      const int x = reached[next];
+      auto visit = [&](int y) {
+        if (!seen[y]) {
+          seen[y] = 1;
+          parent[y] = y;
+          reached.push_back(y);
+        }
+        unite(x, y);
+      };
+      if (x < slotCount) {
+        const auto& options = part_.slots[x].options;
+        for (int k = 0; k < static_cast<int>(options.size()); ++k) {
+          if (optionViable(x, k) && !state.active[options[k].inst]) visit(slotCount + options[k].inst);
+        }
+      } else {
+        for (int t : part_.insts[x - slotCount].slots) {
+          if (state.assigned[t] < 0) visit(t);
+        }
+      }
+    }
+    for (int x : reached) {
+      if (x < slotCount) {
+        for (int c : part_.slots[x].clashes) {
+          if (seen[c]) unite(x, c);
+        }
+      } else {
+        for (int e : part_.insts[x - slotCount].exclusive) {
+          if (seen[slotCount + e]) unite(x, slotCount + e);
+        }
+      }
+    }
+    // Groups by representative, numbered in the order of their first open slot.
+    int count = 0;
+    for (std::size_t i = 0; i < roots; ++i) {
+      const int r = findRoot(reached[i]);
+      if (groupOfRoot[r] < 0) groupOfRoot[r] = count++;
+    }
+    if (count >= 2) {
+      groups.resize(count);
+      for (int x : reached) {
+        const int gr = groupOfRoot[findRoot(x)];
+        if (gr >= 0) groups[gr].push_back(x);  // (every member reaches an open slot)
+      }
+    }
+    for (std::size_t i = 0; i < roots; ++i) groupOfRoot[findRoot(reached[i])] = -1;
+    for (int x : reached) seen[x] = 0;
+    return groups;
+  };
+  std::function<void(Scope&, const std::vector<int>&)> node;
+  // An AND node: the open slots of `scope` fell into independent groups.
+  // Each is solved to its optimum on its own (with what the others must
+  // cost at least subtracted from the limit); together they fill the scope.
+  auto andNode = [&](Scope& scope, std::vector<std::vector<int>>& groups,
+                     const std::vector<int>& found) {
+    const double g0 = state.g;
+    const int poolSize = pool.size();
+    const int count = static_cast<int>(groups.size());
+    std::vector<Scope> parts(count);
+    std::vector<std::vector<int>> landmarks(count);
+    std::vector<double> lower(count);
+    double sum = 0;
+    for (int c = 0; c < count; ++c) {
+      auto& sub = parts[c];
+      sub.id = nextScope++;
+      for (int x : groups[c]) {
+        if (x < slotCount) {
+          slotScope[x] = sub.id;
+        } else {
+          instScope[x - slotCount] = sub.id;
+        }
+      }
+    }
+    // The node's landmarks whose actions all belong to one group are that
+    // group's: every plan of it hits them, and their costs still partition
+    // (a landmark across groups is dropped). They bound and seed each group.
+    auto groupOf = [&](int a) {
+      if (a < instCount) return instScope[a];
+      const int s = static_cast<int>(std::upper_bound(linkBase_.begin(), linkBase_.end(), a) -
+                                     linkBase_.begin()) - 1;
+      return slotScope[s];
+    };
+    std::vector<std::vector<int>> attributed(count);
+    for (int l : found) {
+      const int first = groupOf(*pool.begin(l));
+      bool one = true;
+      for (const int* a = pool.begin(l); a != pool.end(l) && one; ++a) one = groupOf(*a) == first;
+      if (!one) continue;
+      for (int c = 0; c < count; ++c) {
+        if (parts[c].id == first) attributed[c].push_back(l);
+      }
+    }
+    // Each group's bound: its landmarks and new cuts for what they leave.
+    for (int c = 0; c < count; ++c) {
+      bool complete = false;
+      lower[c] = bound(attributed[c], landmarks[c], kInfinity, parts[c].id, &complete);
+      sum += lower[c];
+    }
+    bool useful = g0 + sum < scope.limit - slack_;
+    // The smaller groups first: quickly solved, they tighten the others' limits.
+    std::vector<int> order(count);
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(),
+                     [&](int a, int b) { return groups[a].size() < groups[b].size(); });
+    for (int c : order) {
+      if (!useful) break;
+      auto& sub = parts[c];
+      sub.limit = scope.limit - (sum - lower[c]);
+      sub.start = decisions.size();
+      node(sub, landmarks[c]);
+      if (stop.stopped || !sub.found) {
+        useful = false;
+        break;
+      }
+      const double cost = sub.limit - g0;  // the group's optimum
+      sum += cost - lower[c];
+      lower[c] = cost;
+    }
+    if (useful && !stop.stopped && g0 + sum < scope.limit - slack_) {
+      const std::size_t before = decisions.size();
+      for (const auto& sub : parts) {
+        for (const auto& [s, k] : sub.best) assign(s, k);
+      }
+      leaf(scope);
+      undoTo(before);
+    }
+    for (int c = 0; c < count; ++c) {
+      for (int x : groups[c]) {
+        if (x < slotCount) {
+          slotScope[x] = scope.id;
+        } else {
+          instScope[x - slotCount] = scope.id;
+        }
+      }
+    }
+    pool.truncate(poolSize);
+  };
+  node = [&](Scope& scope, const std::vector<int>& inherited0) {
     ++nodes;
     if (stop.hit()) return;
-    std::vector<Step> trail;
+    const std::size_t decided = decisions.size();
     Bans bans;
     const int poolSize = pool.size();
     std::vector<int> landmarks;
-    const std::vector<int>* inherited = &parent;
+    const std::vector<int>* inherited = &inherited0;
     std::vector<int> scratch;
     int pick = -1;
     auto leave = [&] {
-      unwind(trail);
+      undoTo(decided);
       lift(bans);
       pool.truncate(poolSize);
     };
@@ -493,12 +723,12 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
     // cannot be part of a better configuration, and when that forces
     // choices, propagate and bound once more (on the same landmarks).
     for (int round = 0;; ++round) {
-      const std::size_t assignedBefore = trail.size();
-      if (!propagate(trail) || state.g >= incumbent - slack_) return leave();
+      const std::size_t assignedBefore = decisions.size();
+      if (!propagate(scope) || state.g >= scope.limit - slack_) return leave();
       pick = -1;
       int fewest = 0;
       for (int s = 0; s < slotCount; ++s) {
-        if (state.required[s] == 0 || state.assigned[s] >= 0) continue;
+        if (state.required[s] == 0 || state.assigned[s] >= 0 || !inScope(scope, s)) continue;
         int only = -1;
         const int count = viableCount(s, &only);
         if (pick < 0 || count < fewest) {
@@ -507,16 +737,21 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
         }
       }
       if (pick < 0) {
-        record();
+        leaf(scope);
         return leave();
       }
-      if (round > 0 && trail.size() == assignedBefore) break;  // the bans forced nothing
-      const double budget = incumbent - state.g - slack_;
-      const double h = bound(*inherited, landmarks, budget, &complete);
+      if (round > 0 && decisions.size() == assignedBefore) break;  // the bans forced nothing
+      const double budget = scope.limit - state.g - slack_;
+      bool complete = false;
+      const double h = bound(*inherited, landmarks, budget, scope.id, &complete);
       if (h >= budget) return leave();
-      if (!complete || round >= 1 || fix(budget - h, bans) == 0) break;
+      if (!complete || round >= 1 || fix(scope, budget - h, bans) == 0) break;
       scratch = landmarks;
       inherited = &scratch;
+    }
+    if (auto groups = components(scope); groups.size() >= 2) {
+      andNode(scope, groups, landmarks);
+      return leave();
     }
     const auto& slot = part_.slots[pick];
     std::vector<std::pair<double, int>> ks;
@@ -550,16 +785,19 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
         }
       }
       if (!dominated && state.viable(o.inst)) {
-        const bool activated = state.apply(pick, ks[j].second);
-        dfs(landmarks);
-        state.undo(pick, ks[j].second, activated);
+        const std::size_t before = decisions.size();
+        assign(pick, ks[j].second);
+        node(scope, landmarks);
+        undoTo(before);
       }
       for (int i : bannedHere) --state.banned[i];
       if (stop.stopped) break;
     }
     leave();
   };
-  dfs(rootLandmarks);
+  Scope top;
+  top.limit = incumbent;
+  node(top, rootLandmarks);
   best.nodes += nodes;
   if (!stop.stopped) {
     best.optimal = true;
