@@ -63,6 +63,7 @@ LmCut::LmCut(const RelaxedTask& task) {
   pcf_.resize(actions);
   hmax_.resize(facts);
   status_.resize(facts);
+  popped_.assign(facts, 0);
   toGoal_.resize(facts);
 }
 
@@ -153,6 +154,7 @@ void LmCut::computeHmax(const std::vector<char>& isTrue) {
       h = e.value;
       f = e.fact;
     }
+    popped_[f] = ++pops_;
     forEachUse(f, [&](int a) {
       // Facts come in order of h^max: the last precondition is a maximal one.
       if (--unsatisfied_[a] != 0) return;
@@ -170,6 +172,57 @@ void LmCut::computeHmax(const std::vector<char>& isTrue) {
           } else {
             push(value, g);
           }
+        }
+      }
+    });
+  }
+}
+
+// After the costs of the cut fell: h^max values can only fall, starting from
+// the cut's effects; an action whose supporter fell takes the precondition
+// of maximal h^max now (among equals the one reached last).
+void LmCut::updateHmax() {
+  queue_.clear();
+  for (int a : cut_) {
+    const double value = supporterCost_[a] + cost_[a];
+    for (int i = addStart_[a]; i < addStart_[a + 1]; ++i) {
+      const int g = add_[i];
+      if (value < hmax_[g]) {
+        hmax_[g] = value;
+        push(value, g);
+      }
+    }
+  }
+  while (!queue_.empty()) {
+    const Entry e = pop();
+    if (e.value > hmax_[e.fact]) continue;
+    const double h = e.value;
+    const int f = e.fact;
+    popped_[f] = ++pops_;
+    forEachUse(f, [&](int a) {
+      if (pcf_[a] != f || unsatisfied_[a] != 0 || supporterCost_[a] <= h) return;
+      int best = -1;
+      auto consider = [&](int p) {
+        if (best < 0 || hmax_[p] > hmax_[best] ||
+            (hmax_[p] == hmax_[best] && popped_[p] > popped_[best])) {
+          best = p;
+        }
+      };
+      if (a == goalAction_) {
+        for (int p : goal_) consider(p);
+      } else {
+        for (int i = preStart_[a]; i < preStart_[a + 1]; ++i) consider(pre_[i]);
+      }
+      const double old = supporterCost_[a];
+      pcf_[a] = best;
+      supporterCost_[a] = hmax_[best];
+      if (supporterCost_[a] >= old || cost_[a] == kInfinity) return;
+      const double value = supporterCost_[a] + cost_[a];
+      for (int i = addStart_[a]; i < addStart_[a + 1]; ++i) {
+        const int g = add_[i];
+        if (value < hmax_[g]) {
+          hmax_[g] = value;
+          push(value, g);
         }
       }
     });
@@ -266,7 +319,11 @@ double LmCut::compute(const std::vector<double>& costs, const std::vector<char>&
       cost_[a] -= cheapest;
       if (cost_[a] < kEpsilon) cost_[a] = 0;
     }
-    computeHmax(isTrue);
+    if (incremental) {
+      updateHmax();
+    } else {
+      computeHmax(isTrue);
+    }
   }
   return h;
 }

@@ -59,6 +59,10 @@ class LmCut {
   // what it can afford.
   void usageCosts(std::vector<double>& out);
 
+  // After each cut, h^max updated from the cut only (cheaper) instead of
+  // afresh (supporters may differ on ties: other, often weaker, bounds).
+  bool incremental = false;
+
   // h^max alone (cheaper, weaker); kInfinity when unreachable.
   double hmax(const std::vector<double>& costs, const std::vector<char>& isTrue,
               const std::vector<int>& goal);
@@ -73,6 +77,7 @@ class LmCut {
   };
   void setGoal(const std::vector<int>& goal);
   void computeHmax(const std::vector<char>& isTrue);
+  void updateHmax();
   // Calls f(action) for each action with `fact` as a precondition.
   template <typename F>
   void forEachUse(int fact, F&& f) const;
@@ -90,6 +95,8 @@ class LmCut {
   std::vector<double> cost_, hmax_, supporterCost_, toGoal_;
   std::vector<int> unsatisfied_, pcf_, stack_, level_, cut_;
   std::vector<char> status_;
+  std::vector<long> popped_;  // when each fact was last expanded (ties)
+  long pops_ = 0;
   std::vector<Entry> queue_;  // a binary heap, smallest first
 };
 

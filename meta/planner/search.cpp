@@ -386,7 +386,10 @@ PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) 
   double incumbent = best.found ? best.cost : kInfinity;
   std::vector<int> rootLandmarks;
   bool complete = false;
+  // The root's cuts with h^max afresh after each (stronger, and inherited
+  // by every node); below, h^max updated from each cut (cheaper).
   const double rootBound = bound({}, rootLandmarks, incumbent, -1, &complete);
+  lmcut.incremental = true;
   best.lowerBound = std::min(rootBound, incumbent);
   if (rootBound == kInfinity) {  // no configuration at all
     best.optimal = !best.found;
