@@ -89,8 +89,8 @@ class LmCut {
   // and per fact the actions that need it (the goal action apart) and
   // the actions that add it.
   std::vector<int> preStart_, pre_, addStart_, add_, useStart_, use_, adderStart_, adder_;
-  std::vector<int> goal_;       // the goal action's preconditions
-  std::vector<char> isGoal_;    // per fact: a precondition of the goal action
+  std::vector<int> goal_;     // the goal action's preconditions
+  std::vector<char> isGoal_;  // per fact: a precondition of the goal action
   // Work arrays.
   std::vector<double> cost_, hmax_, supporterCost_, toGoal_;
   std::vector<int> unsatisfied_, pcf_, stack_, level_, cut_;

@@ -152,41 +152,104 @@ class Moves {
     return sum;
   }
 
+  // Every change is journalled, so that a move that does not pay is undone
+  // in the time it took (no copy of the configuration per move).
+  enum Field : char { kActive, kAssigned, kRequired, kUses };
+  struct Change {
+    Field field;
+    int index, old;
+  };
+  void set(Solution& x, Field field, int index, int value) {
+    int* slot = nullptr;
+    int old = 0;
+    switch (field) {
+      case kActive:
+        old = x.active[index];
+        x.active[index] = static_cast<char>(value);
+        break;
+      case kAssigned:
+        slot = &x.assigned[index];
+        break;
+      case kRequired:
+        slot = &x.required[index];
+        break;
+      case kUses:
+        slot = &x.uses[index];
+        break;
+    }
+    if (slot) {
+      old = *slot;
+      *slot = value;
+    }
+    journal_.push_back({field, index, old});
+  }
+
   void activate(Solution& x, int i) {
-    x.active[i] = 1;
+    set(x, kActive, i, 1);
     x.g += part_.insts[i].cost;
     for (int t : part_.insts[i].slots) {
-      if (++x.required[t] == 1) open_.push_back(t);
+      set(x, kRequired, t, x.required[t] + 1);
+      if (x.required[t] == 1) open_.push_back(t);
     }
   }
 
   void deactivate(Solution& x, int i) {
-    x.active[i] = 0;
+    set(x, kActive, i, 0);
     x.g -= part_.insts[i].cost;
     for (int t : part_.insts[i].slots) {
-      if (--x.required[t] == 0 && x.assigned[t] >= 0) unassign(x, t);
+      set(x, kRequired, t, x.required[t] - 1);
+      if (x.required[t] == 0 && x.assigned[t] >= 0) unassign(x, t);
     }
   }
 
   void assign(Solution& x, int s, int k) {
     const auto& o = part_.slots[s].options[k];
-    x.assigned[s] = k;
+    set(x, kAssigned, s, k);
     x.g += o.link;
-    ++x.uses[o.inst];
+    set(x, kUses, o.inst, x.uses[o.inst] + 1);
     if (!x.active[o.inst]) activate(x, o.inst);
   }
 
   void unassign(Solution& x, int s) {
     const auto& o = part_.slots[s].options[x.assigned[s]];
-    x.assigned[s] = -1;
+    set(x, kAssigned, s, -1);
     x.g -= o.link;
-    if (--x.uses[o.inst] == 0) deactivate(x, o.inst);
+    set(x, kUses, o.inst, x.uses[o.inst] - 1);
+    if (x.uses[o.inst] == 0) deactivate(x, o.inst);
   }
 
+ public:
+  std::size_t mark() const { return journal_.size(); }
+  // Back to the configuration at `mark` (with its cost `g`).
+  void undo(Solution& x, std::size_t mark, double g) {
+    while (journal_.size() > mark) {
+      const auto c = journal_.back();
+      journal_.pop_back();
+      switch (c.field) {
+        case kActive:
+          x.active[c.index] = static_cast<char>(c.old);
+          break;
+        case kAssigned:
+          x.assigned[c.index] = c.old;
+          break;
+        case kRequired:
+          x.required[c.index] = c.old;
+          break;
+        case kUses:
+          x.uses[c.index] = c.old;
+          break;
+      }
+    }
+    x.g = g;
+  }
+  void commit() { journal_.clear(); }
+
+ private:
   const Part& part_;
   const std::vector<double>& estimate_;
   std::vector<std::vector<std::pair<int, int>>> fills_;  // instance -> (slot, option)
   std::vector<int> open_;
+  std::vector<Change> journal_;
 };
 
 }  // namespace
@@ -198,7 +261,8 @@ PartSolution PartSearch::polish(PartSolution start, const SearchLimits& limits) 
   const int insts = static_cast<int>(part_.insts.size());
   std::int64_t tried = 0;
   auto outOfTime = [&] {
-    return limits.deadline && (tried & 15) == 0 && std::chrono::steady_clock::now() >= *limits.deadline;
+    return limits.deadline && (tried & 15) == 0 &&
+           std::chrono::steady_clock::now() >= *limits.deadline;
   };
   // A generous cap on the moves, for pathological models.
   const std::int64_t cap = 50 * static_cast<std::int64_t>(insts) + 1000;
@@ -208,11 +272,13 @@ PartSolution PartSearch::polish(PartSolution start, const SearchLimits& limits) 
     for (int i = 0; i < insts && !improved; ++i) {
       ++tried;
       if (outOfTime()) break;
-      Solution x = current;
-      const bool ok = current.active[i] ? moves.drop(x, i) : moves.add(x, i);
-      if (ok && x.g < current.g - kEpsilon) {
-        current = std::move(x);
+      const double g = current.g;
+      const bool ok = current.active[i] ? moves.drop(current, i) : moves.add(current, i);
+      if (ok && current.g < g - kEpsilon) {
+        moves.commit();
         improved = true;
+      } else {
+        moves.undo(current, 0, g);
       }
     }
   }

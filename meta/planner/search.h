@@ -1,8 +1,8 @@
-// Branch and bound over one independent part of a ground problem: which
-// producer fills each required meta input. A greedy dive gives a valid
-// configuration first; depth-first branch and bound with the LM-cut bound then
-// proves the optimum (or stops at the deadline with a lower bound).
-// Internal to the planner.
+// The search over one independent part of a ground problem: which producer
+// fills each required meta input. A greedy dive gives a valid configuration
+// first, local search polishes it (local_search.cpp), branch and bound
+// (branch_and_bound.h) proves the optimum or stops at the limits with a
+// lower bound. Internal to the planner.
 #pragma once
 
 #include <chrono>
@@ -67,7 +67,7 @@ class PartSearch {
   PartSolution improve(PartSolution incumbent, const SearchLimits& limits);
 
  private:
-  struct State;
+  friend class BranchAndBound;
   // A depth-first dive with backtracking; options by estimate, or by
   // `guide` (a value per link action of task_) when given.
   PartSolution dive(const SearchLimits& limits, const std::vector<double>* guide);

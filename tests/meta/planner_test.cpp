@@ -255,8 +255,7 @@ peis:
   CHECK(r.configuration.cost == Approx(7.0));  // src + sh1..3, against 12 for the private chains
 }
 
-TEST_CASE("two producers of one thing run when their nearer links pay for it",
-          "[unit][planner]") {
+TEST_CASE("two producers of one thing run when their nearer links pay for it", "[unit][planner]") {
   // b0 is wanted on q0, q2 (twice) and q3 (twice); q2/f1 and q3/f3 make it
   // next to their consumers, both from q1's a0 over the radio. Feeding
   // everyone from one of them costs more links than running both (13.4).
@@ -376,8 +375,8 @@ std::optional<double> mergedCost(const std::vector<Configuration>& parts) {
     for (const auto& i : c.instances) instances[i.toString()] = i.cost;
     for (const auto& l : c.links) {
       const auto producer = l.producerPeis + "." + l.producerKey;
-      auto [it, inserted] = links.emplace(l.consumerPeis + "." + l.consumerKey,
-                                          std::make_pair(producer, l.cost));
+      auto [it, inserted] =
+          links.emplace(l.consumerPeis + "." + l.consumerKey, std::make_pair(producer, l.cost));
       if (!inserted && it->second.first != producer) return std::nullopt;
     }
   }
@@ -468,9 +467,9 @@ TEST_CASE("optimal on 10,000 random small models (exhaustive search)",
   Sample sample;
   while (sample.checked < 10000) checkAgainstExhaustive(testing::smallRandom(rng), sample);
   INFO("feasible " << sample.feasible << ", instances with variables " << sample.withVariables
-                   << ", shared outputs " << sample.shared << ", several goals "
-                   << sample.multiGoal << ", per-goal optima merged dearer "
-                   << sample.mergedDearer << " or invalid " << sample.mergedInvalid);
+                   << ", shared outputs " << sample.shared << ", several goals " << sample.multiGoal
+                   << ", per-goal optima merged dearer " << sample.mergedDearer << " or invalid "
+                   << sample.mergedInvalid);
   // The sample exercises what it should.
   CHECK(sample.feasible > 2500);
   CHECK(sample.withVariables > 1000);
@@ -486,9 +485,9 @@ TEST_CASE("optimal on 4,000 small models of shared producers (exhaustive search)
   std::mt19937 rng(20251124);
   Sample sample;
   while (sample.checked < 4000) checkAgainstExhaustive(testing::smallShared(rng), sample);
-  INFO("feasible " << sample.feasible << ", shared outputs " << sample.shared
-                   << ", several goals " << sample.multiGoal << ", per-goal optima merged dearer "
-                   << sample.mergedDearer << " or invalid " << sample.mergedInvalid);
+  INFO("feasible " << sample.feasible << ", shared outputs " << sample.shared << ", several goals "
+                   << sample.multiGoal << ", per-goal optima merged dearer " << sample.mergedDearer
+                   << " or invalid " << sample.mergedInvalid);
   CHECK(sample.feasible > 3000);
   CHECK(sample.shared > 1000);
   CHECK(sample.mergedDearer + sample.mergedInvalid > 100);
