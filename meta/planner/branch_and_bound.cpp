@@ -150,11 +150,14 @@ void BranchAndBound::undoTo(std::size_t size) {
 // Assignments that need no choice: a slot with one possible producer; and,
 // when no cycle is possible, a slot whose cheapest link comes from a
 // producer already running (using it can never cost more). False when a
-// slot has no producer left.
-bool BranchAndBound::propagate(const Scope& scope) {
+// slot has no producer left. `pick`: the open slot with the fewest
+// producers left (the first of them), -1 when none is open.
+bool BranchAndBound::propagate(const Scope& scope, int* pick) {
   bool changed = true;
   while (changed) {
     changed = false;
+    *pick = -1;
+    int fewest = 0;
     for (int s = 0; s < slotCount_; ++s) {
       if (state_.required[s] == 0 || state_.assigned[s] >= 0 || !inScope(scope, s)) continue;
       const auto& slot = part_.slots[s];
@@ -177,7 +180,13 @@ bool BranchAndBound::propagate(const Scope& scope) {
         }
         if (activeBest >= 0 && activeLink <= cheapest) choice = activeBest;
       }
-      if (choice < 0) continue;
+      if (choice < 0) {
+        if (*pick < 0 || count < fewest) {
+          *pick = s;
+          fewest = count;
+        }
+        continue;
+      }
       assign(s, choice);
       changed = true;
     }
@@ -424,18 +433,7 @@ void BranchAndBound::node(Scope& scope, const std::vector<int>& inheritedFromPar
   // choices, propagate and bound once more (on the same landmarks).
   for (int round = 0;; ++round) {
     const std::size_t assignedBefore = decisions_.size();
-    if (!propagate(scope) || state_.g >= scope.limit - search_.slack_) return leave();
-    pick = -1;
-    int fewest = 0;
-    for (int s = 0; s < slotCount_; ++s) {
-      if (state_.required[s] == 0 || state_.assigned[s] >= 0 || !inScope(scope, s)) continue;
-      int only = -1;
-      const int count = viableCount(s, &only);
-      if (pick < 0 || count < fewest) {
-        pick = s;
-        fewest = count;
-      }
-    }
+    if (!propagate(scope, &pick) || state_.g >= scope.limit - search_.slack_) return leave();
     if (pick < 0) {
       leaf(scope);
       return leave();

@@ -49,7 +49,7 @@ class BranchAndBound {
                bool* complete);
   void assign(int s, int k);
   void undoTo(std::size_t size);
-  bool propagate(const Scope& scope);
+  bool propagate(const Scope& scope, int* pick);
   void record();
   void leaf(Scope& scope);
   int fix(const Scope& scope, double budget, Bans& bans);
