@@ -9,6 +9,7 @@
 //
 //   peis-bench-record --record build/components/recorder/peis-record
 //                     [--rate N] [--seconds S] [--keys K] [--dir DIR]
+#include <fcntl.h>
 #include <peis/kernel.h>
 #include <signal.h>
 #include <spawn.h>
@@ -20,6 +21,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <string>
 #include <thread>
@@ -98,7 +100,15 @@ int main(int argc, char** argv) {
   for (auto& a : args) argv2.push_back(a.data());
   argv2.push_back(nullptr);
   pid_t recorder = -1;
-  if (posix_spawn(&recorder, s.record.c_str(), nullptr, nullptr, argv2.data(), environ) != 0) {
+  // Its stderr (the summary line with the longest commit) goes to a file.
+  const std::string log = file + ".log";
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 2, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  const int spawned =
+      posix_spawn(&recorder, s.record.c_str(), &actions, nullptr, argv2.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (spawned != 0) {
     std::cerr << "cannot start " << s.record << "\n";
     return 1;
   }
@@ -157,16 +167,25 @@ int main(int argc, char** argv) {
     }
   }
   const auto bytes = std::filesystem::file_size(file);
+  std::string summary;
+  {
+    std::ifstream in(log);
+    for (std::string line; std::getline(in, line);) summary = line;
+  }
+  const auto longest = summary.find("the longest ");
+  const double longestCommitMs =
+      longest == std::string::npos ? -1 : std::atof(summary.c_str() + longest + 12);
+  std::filesystem::remove(log);
   for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(file + suffix);
   const double updates = static_cast<double>(written);
-  // | rate asked | written | achieved /s | recorded | missing | coalesced (seqno gaps / writer) |
-  // CPU us per update | CPU % of a core | disk B per update | drain s | recorder max RSS |
+  // | load | written | achieved /s | recorded | missing | coalesced (seqno gaps / writer) |
+  // CPU us per update | CPU % of a core | disk B per update | longest commit | drain s | max RSS |
   std::printf("| %.0f /s x %.0f s, %d keys, 16 B | %" PRIu64 " | %.0f | %" PRIu64 " | %" PRId64
-              " | %" PRIu64 " / %" PRIu64 " | %.2f | %.0f %% | %.1f | %.2f | %ld MiB |\n",
+              " | %" PRIu64 " / %" PRIu64 " | %.2f | %.0f %% | %.1f | %.0f ms | %.2f | %ld MiB |\n",
               s.rate, s.seconds, s.keys, written, updates / writeSeconds, recorded,
               static_cast<std::int64_t>(written) - static_cast<std::int64_t>(recorded), gaps,
               writer.networkStats().coalesced, cpu * 1e6 / updates,
               100 * cpu / (writeSeconds + drainSeconds), static_cast<double>(bytes) / updates,
-              drainSeconds, usage.ru_maxrss / 1024);
+              longestCommitMs, drainSeconds, usage.ru_maxrss / 1024);
   return written == recorded && WIFEXITED(status) && WEXITSTATUS(status) == 0 ? 0 : 1;
 }

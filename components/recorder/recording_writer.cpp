@@ -61,13 +61,41 @@ struct RecordingWriter::Impl {
   std::thread thread;
   bool finished = false;
 
-  Impl(const std::string& path, WriterSettings s)
+  // Checkpoints (the WAL's pages copied into the database, with fsync) run
+  // on a thread and connection of their own, so a commit is only a write
+  // into the WAL and never waits for them.
+  std::string path;
+  std::mutex checkpointMu;
+  std::condition_variable checkpointWake;
+  bool checkpointStop = false;  // guarded by checkpointMu
+  std::thread checkpointer;
+
+  void checkpointLoop() {
+    try {
+      Database own(path, Database::Mode::ReadWrite);
+      std::unique_lock lock(checkpointMu);
+      while (!checkpointWake.wait_for(lock, kCheckpointPeriod, [&] { return checkpointStop; })) {
+        lock.unlock();
+        own.exec("PRAGMA wal_checkpoint(PASSIVE)");
+        lock.lock();
+      }
+    } catch (const Error&) {
+      // The final checkpoint at finish() folds the WAL in anyway.
+    }
+  }
+
+  static constexpr std::chrono::seconds kCheckpointPeriod{1};
+
+  Impl(const std::string& file, WriterSettings s)
       : settings(s),
-        db(path, Database::Mode::Create),
+        db(file, Database::Mode::Create),
         insertEvent(prepareAfterSchema(db)),
         insertTuple(db.prepare("INSERT INTO tuples (owner, key) VALUES (?1, ?2)")),
         insertOwner(db.prepare("INSERT OR IGNORE INTO owners (id, name) VALUES (?1, ?2)")),
-        setValue(db.prepare("INSERT OR REPLACE INTO recording (name, value) VALUES (?1, ?2)")) {}
+        setValue(db.prepare("INSERT OR REPLACE INTO recording (name, value) VALUES (?1, ?2)")),
+        path(file) {
+    db.exec("PRAGMA wal_autocheckpoint = 0");
+  }
 
   static Statement prepareAfterSchema(Database& db) {
     createSchema(db);
@@ -175,6 +203,7 @@ RecordingWriter::RecordingWriter(const std::string& path,
   for (const auto& [name, value] : header) impl_->put(name, value);
   impl_->db.exec("COMMIT");
   impl_->thread = std::thread([this] { impl_->loop(); });
+  impl_->checkpointer = std::thread([this] { impl_->checkpointLoop(); });
 }
 
 RecordingWriter::~RecordingWriter() {
@@ -215,6 +244,12 @@ void RecordingWriter::finish(const std::map<std::string, std::string>& footer) {
   }
   impl_->wake.notify_one();
   impl_->thread.join();
+  {
+    std::lock_guard lock(impl_->checkpointMu);
+    impl_->checkpointStop = true;
+  }
+  impl_->checkpointWake.notify_one();
+  impl_->checkpointer.join();
   impl_->db.exec("BEGIN");
   impl_->put("dropped", std::to_string(stats().dropped));
   for (const auto& [name, value] : footer) impl_->put(name, value);

@@ -15,9 +15,9 @@ class Statement;
 
 class Database {
  public:
-  enum class Mode { ReadOnly, Create };
-  // Opens `path`. ReadOnly never creates it; Create makes a new file (the
-  // caller decided an existing one may go).
+  enum class Mode { ReadOnly, ReadWrite, Create };
+  // Opens `path`. ReadOnly and ReadWrite never create it; Create makes a
+  // new file (the caller decided an existing one may go).
   Database(const std::string& path, Mode mode);
   ~Database();
   Database(const Database&) = delete;

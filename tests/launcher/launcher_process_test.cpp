@@ -8,6 +8,7 @@
 #include <signal.h>
 
 #include <catch2/catch.hpp>
+#include <filesystem>
 #include <fstream>
 
 #include "support/integration.h"
@@ -235,6 +236,15 @@ TEST_CASE("peis-init refuses broken and unknown component files with file:line",
     CHECK(*status == 0);
     CHECK(init.out() ==
           "good: sh (" + dir.file("good.yaml") + "), start off, restart on-failure\n");
+  }
+  SECTION("`peis init` runs peis-init, as git runs git-FOO") {
+    const std::string initDir = std::filesystem::path(PEIS_INIT_PATH).parent_path();
+    Process init({PEIS_CLI_PATH, "init", dir.path.string(), "--check"},
+                 {{"PEIS_EXEC_PATH", initDir}});
+    const auto status = init.wait(kDeadline);
+    INFO(init.describe());
+    CHECK(status == 0);
+    CHECK(init.out().find("good: sh") == 0);
   }
   SECTION("a missing folder and bad options") {
     Process missing({PEIS_INIT_PATH, dir.file("nope")});

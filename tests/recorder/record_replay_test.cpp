@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <catch2/catch.hpp>
+#include <filesystem>
 #include <regex>
 #include <thread>
 
@@ -348,6 +349,15 @@ TEST_CASE("the recording programs refuse bad files and options clearly", "[unit]
   CHECK(r.status == 2);
   r = runProgram({PEIS_INSPECT_PATH});
   CHECK(r.status == 2);
+  // `peis inspect` runs peis-inspect, as git runs git-FOO.
+  {
+    const std::string inspectDir = std::filesystem::path(PEIS_INSPECT_PATH).parent_path();
+    Process viaPeis({PEIS_CLI_PATH, "inspect", text}, {{"PEIS_EXEC_PATH", inspectDir}});
+    const auto status = viaPeis.wait(kDeadline);
+    INFO(viaPeis.describe());
+    CHECK(status == 1);
+    CHECK(viaPeis.err().find(text + ": not a PEIS recording") != std::string::npos);
+  }
   for (const char* program : {PEIS_RECORD_PATH, PEIS_INSPECT_PATH, PEIS_REPLAY_PATH}) {
     r = runProgram({program, "--help"});
     CHECK(r.status == 0);
