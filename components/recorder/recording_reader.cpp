@@ -38,11 +38,12 @@ RecordingReader::RecordingReader(const std::string& path) {
 
 RecordingReader::~RecordingReader() = default;
 
-std::map<PeisId, std::string> RecordingReader::owners() {
+std::map<PeisId, std::string> RecordingReader::owners(bool beyondKernel) {
   std::map<PeisId, std::string> result;
-  auto s = db_->prepare(
-      "SELECT DISTINCT t.owner, coalesce(o.name, '') FROM tuples t "
-      "LEFT JOIN owners o ON o.id = t.owner ORDER BY t.owner");
+  auto s = db_->prepare(std::string("SELECT DISTINCT t.owner, coalesce(o.name, '') FROM tuples t "
+                                    "LEFT JOIN owners o ON o.id = t.owner ") +
+                        (beyondKernel ? "WHERE substr(t.key, 1, 7) != 'kernel.' " : "") +
+                        "ORDER BY t.owner");
   while (s.step()) result[static_cast<PeisId>(s.integer(0))] = s.text(1);
   return result;
 }

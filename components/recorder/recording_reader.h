@@ -50,7 +50,9 @@ class RecordingReader {
   ~RecordingReader();
 
   RecordingSummary summary();
-  std::map<PeisId, std::string> owners();
+  // The owners of recorded tuples, with their names; with `beyondKernel`
+  // only those with a tuple outside kernel.* (what a stand-in replays).
+  std::map<PeisId, std::string> owners(bool beyondKernel = false);
   // Starts (again) at the first event.
   void rewind();
   // The next event in the order of arrival; false after the last.

@@ -129,7 +129,7 @@ int main(int argc, char** argv) {
   std::map<peis::PeisId, std::string> owners;
   try {
     reader = std::make_unique<peis::recorder::RecordingReader>(path);
-    owners = reader->owners();
+    owners = reader->owners(!prefix);  // a stand-in replays no kernel.* tuples
   } catch (const peis::Error& e) {
     std::cerr << "peis-replay: " << e.what() << "\n";
     return 1;

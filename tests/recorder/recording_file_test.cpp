@@ -220,3 +220,20 @@ TEST_CASE("inspect reports the span, totals, rates and one line per tuple", "[un
         std::string::npos);
   CHECK(jsonString("a\"b\\\n") == "\"a\\\"b\\\\\\u000a\"");
 }
+
+TEST_CASE("a stand-in replay needs only the owners with tuples beyond kernel.*", "[unit]") {
+  TempDir dir("rec");
+  const std::string path = dir.file("r.db");
+  {
+    RecordingWriter writer(path, {}, {}, {}, {});
+    auto tool = event(1000, "kernel.name", "peis-get", 1);
+    tool.tuple.owner = 13;
+    writer.add(tool);
+    writer.add(event(2000, "kernel.name", "lamp", 1));
+    writer.add(event(3000, "light", "on", 1));
+    writer.finish({});
+  }
+  RecordingReader reader(path);
+  CHECK(reader.owners().size() == 2);
+  CHECK(reader.owners(true) == std::map<peis::PeisId, std::string>{{12, ""}});
+}
