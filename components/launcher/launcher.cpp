@@ -134,10 +134,11 @@ void Launcher::Impl::sync(Entry& e) {
     kernel.set(keys::component(name, "exitCode"), optionalText(now.exitCode));
   if (!e.published || now.restarts != before.restarts)
     kernel.set(keys::component(name, "restarts"), std::to_string(now.restarts));
-  if (!e.published || now.currState != before.currState)
-    kernel.set(keys::component(name, "currState"), now.currState);
+  // currState last: a watcher of it finds the others matching.
   if (!e.published || now.status != before.status || now.currState != before.currState)
     kernel.set(keys::component(name, "status"), now.status);
+  if (!e.published || now.currState != before.currState)
+    kernel.set(keys::component(name, "currState"), now.currState);
   if (e.published && now.currState != before.currState) {
     log::info(kernel.id(), "launcher: " + name + " " + before.currState + " -> " + now.currState +
                                (now.status != "ok" ? " (" + now.status + ")" : ""));

@@ -64,9 +64,15 @@ struct LauncherFixture {
   std::string value(const std::string& component, const std::string& field) const {
     return valueOf(*observer, id, "components." + component + "." + field);
   }
-  bool waitState(const std::string& component, const std::string& state,
-                 std::chrono::milliseconds deadline = kDeadline) const {
-    return waitFor([&] { return value(component, "currState") == state; }, deadline);
+  // True when the last currState the observer's callback saw for
+  // `component` is `state`. The launcher writes currState last, so its
+  // other tuples (status, pid, exitCode, restarts) are in the cache by then.
+  bool reached(const std::string& component, const std::string& state) const {
+    const auto seen = states.entries();
+    for (auto it = seen.rbegin(); it != seen.rend(); ++it) {
+      if (it->rfind(component + " ", 0) == 0) return *it == component + " " + state;
+    }
+    return false;
   }
   // A remote write of reqState, as the configurator makes it.
   void request(const std::string& component, const std::string& state) {
@@ -88,13 +94,14 @@ TEST_CASE("peis-init starts and stops a PEIS component when its reqState is writ
                        "}\nenvironment: {PEIS_LOG: info}\nstop-grace: 10\n");
   f.start();
   StateReport report([&] { return f.report(); });
-  REQUIRE_WAIT([&] { return f.value("worker", "currState") == "off"; }, kDeadline);
+  REQUIRE_WAIT([&] { return f.reached("worker", "off"); }, kDeadline);
   CHECK(f.value("worker", "peisName") == peisName);
-  CHECK(valueOf(*f.observer, f.id, "launcher.components") == "worker");
-  CHECK(valueOf(*f.observer, f.id, "status") == "running");
+  REQUIRE_WAIT([&] { return valueOf(*f.observer, f.id, "launcher.components") == "worker"; },
+               kDeadline);
+  REQUIRE_WAIT([&] { return valueOf(*f.observer, f.id, "status") == "running"; }, kDeadline);
 
   f.request("worker", "on");
-  REQUIRE_WAIT([&] { return f.value("worker", "currState") == "on"; }, kDeadline);
+  REQUIRE_WAIT([&] { return f.reached("worker", "on"); }, kDeadline);
   const pid_t pid = std::stoi(f.value("worker", "pid"));
   CHECK(f.value("worker", "status") == "ok");
   // The component joined the launcher's ecology under the name its file gives.
@@ -105,7 +112,7 @@ TEST_CASE("peis-init starts and stops a PEIS component when its reqState is writ
       kDeadline);
 
   f.request("worker", "off");
-  REQUIRE_WAIT([&] { return f.value("worker", "currState") == "off"; }, kDeadline);
+  REQUIRE_WAIT([&] { return f.reached("worker", "off"); }, kDeadline);
   CHECK(f.value("worker", "exitCode") == "0");  // peis node ends cleanly on SIGTERM
   CHECK(f.value("worker", "pid").empty());
   CHECK(processGone(pid));
@@ -128,10 +135,10 @@ TEST_CASE("peis-init: a missing executable fails that component only", "[fault]"
       "name: sleeper\nexecutable: sh\narguments: [-c, 'echo hello; exec sleep 600']\nstart: on\n");
   f.start();
   StateReport report([&] { return f.report(); });
-  REQUIRE_WAIT([&] { return f.value("ghost", "currState") == "failed"; }, kDeadline);
+  REQUIRE_WAIT([&] { return f.reached("ghost", "failed"); }, kDeadline);
   CHECK(f.value("ghost", "status") == "error: executable '" + f.dir.file("no-such-program") +
                                           "' not found (" + f.dir.file("ghost.yaml") + ":2)");
-  REQUIRE_WAIT([&] { return f.value("sleeper", "currState") == "on"; }, kDeadline);
+  REQUIRE_WAIT([&] { return f.reached("sleeper", "on"); }, kDeadline);
   REQUIRE_WAIT([&] { return f.value("sleeper", "stdout") == "hello"; }, kDeadline);
   CHECK(f.launcher->running());
 }
@@ -144,7 +151,7 @@ TEST_CASE("peis-init: a program that exits at once is restarted with back-off, t
          "restart: {backoff: 0.05, max-backoff: 0.2, max-restarts: 3}\n");
   f.start();
   StateReport report([&] { return f.report(); });
-  REQUIRE_WAIT([&] { return f.value("crasher", "currState") == "failed"; }, kDeadline);
+  REQUIRE_WAIT([&] { return f.reached("crasher", "failed"); }, kDeadline);
   CHECK(f.value("crasher", "status") ==
         "error: exited with status 3, 3 restarts in a row (max-restarts 3)");
   CHECK(f.value("crasher", "restarts") == "3");
@@ -169,7 +176,7 @@ TEST_CASE("peis-init: a program that ignores SIGTERM is killed after the grace",
   REQUIRE(f.value("stubborn", "currState") == "on");
   const pid_t pid = std::stoi(f.value("stubborn", "pid"));
   f.request("stubborn", "off");
-  REQUIRE_WAIT([&] { return f.value("stubborn", "currState") == "off"; }, kDeadline);
+  REQUIRE_WAIT([&] { return f.reached("stubborn", "off"); }, kDeadline);
   CHECK(f.value("stubborn", "exitCode") == "-9");
   CHECK(processGone(pid));
   const auto seen = f.states.entries();
@@ -183,7 +190,7 @@ TEST_CASE("peis-init stops its components when it stops, and nothing else", "[in
   Process bystander({"/bin/sleep", "600"});  // started by the test, not by the launcher
   f.start();
   StateReport report([&] { return f.report(); });
-  REQUIRE_WAIT([&] { return f.value("sleeper", "currState") == "on"; }, kDeadline);
+  REQUIRE_WAIT([&] { return f.reached("sleeper", "on"); }, kDeadline);
   const pid_t pid = std::stoi(f.value("sleeper", "pid"));
   f.launcher->kill(SIGTERM);
   const auto status = f.launcher->wait(kDeadline);
@@ -199,11 +206,20 @@ TEST_CASE("a killed peis-init takes its components along", "[fault]") {
   f.file("sleeper", "name: sleeper\nexecutable: sleep\narguments: ['600']\nstart: on\n");
   f.start();
   StateReport report([&] { return f.report(); });
-  REQUIRE_WAIT([&] { return f.value("sleeper", "currState") == "on"; }, kDeadline);
+  REQUIRE_WAIT([&] { return f.reached("sleeper", "on"); }, kDeadline);
   const pid_t pid = std::stoi(f.value("sleeper", "pid"));
   f.launcher->kill(SIGKILL);
   REQUIRE(f.launcher->wait(kDeadline));
   REQUIRE_WAIT([&] { return processGone(pid); }, kDeadline);
+}
+
+// Runs a program that ends by itself (peis-init with bad files, --check).
+CliResult runToEnd(std::vector<std::string> argv, const Process::Environment& env = {}) {
+  Process p(std::move(argv), env);
+  const auto status = p.wait(kDeadline);
+  INFO(p.describe());
+  REQUIRE(status);
+  return CliResult{*status, p.out(), p.err()};
 }
 
 TEST_CASE("peis-init refuses broken and unknown component files with file:line", "[unit]") {
@@ -211,50 +227,38 @@ TEST_CASE("peis-init refuses broken and unknown component files with file:line",
   dir.write("good.yaml", "name: good\nexecutable: sh\n");
   SECTION("broken YAML") {
     dir.write("broken.yaml", "name: broken\nexecutable: sh\narguments: [a, b\n");
-    Process init({PEIS_INIT_PATH, dir.path.string()});
-    const auto status = init.wait(kDeadline);
-    INFO(init.describe());
-    REQUIRE(status);
-    CHECK(*status == 2);
-    CHECK(init.err().find(dir.file("broken.yaml") + ":4: not valid YAML") != std::string::npos);
+    const auto r = runToEnd({PEIS_INIT_PATH, dir.path.string()});
+    CHECK(r.status == 2);
+    CHECK(r.err.find(dir.file("broken.yaml") + ":4: not valid YAML") != std::string::npos);
   }
   SECTION("an unknown key") {
     dir.write("typo.yaml", "name: typo\nexecutable: sh\nargs: [a]\n");
-    Process init({PEIS_INIT_PATH, dir.path.string()});
-    const auto status = init.wait(kDeadline);
-    INFO(init.describe());
-    REQUIRE(status);
-    CHECK(*status == 2);
-    CHECK(init.err().find(dir.file("typo.yaml") + ":3: unknown key 'args' in the component file") !=
+    const auto r = runToEnd({PEIS_INIT_PATH, dir.path.string()});
+    CHECK(r.status == 2);
+    CHECK(r.err.find(dir.file("typo.yaml") + ":3: unknown key 'args' in the component file") !=
           std::string::npos);
   }
   SECTION("--check lists valid files") {
-    Process init({PEIS_INIT_PATH, dir.path.string(), "--check"});
-    const auto status = init.wait(kDeadline);
-    INFO(init.describe());
-    REQUIRE(status);
-    CHECK(*status == 0);
-    CHECK(init.out() ==
-          "good: sh (" + dir.file("good.yaml") + "), start off, restart on-failure\n");
+    const auto r = runToEnd({PEIS_INIT_PATH, dir.path.string(), "--check"});
+    CHECK(r.status == 0);
+    CHECK(r.out == "good: sh (" + dir.file("good.yaml") + "), start off, restart on-failure\n");
   }
   SECTION("`peis init` runs peis-init, as git runs git-FOO") {
     const std::string initDir = std::filesystem::path(PEIS_INIT_PATH).parent_path();
-    Process init({PEIS_CLI_PATH, "init", dir.path.string(), "--check"},
-                 {{"PEIS_EXEC_PATH", initDir}});
-    const auto status = init.wait(kDeadline);
-    INFO(init.describe());
-    CHECK(status == 0);
-    CHECK(init.out().find("good: sh") == 0);
+    const auto r = runToEnd({PEIS_CLI_PATH, "init", dir.path.string(), "--check"},
+                            {{"PEIS_EXEC_PATH", initDir}});
+    CHECK(r.status == 0);
+    CHECK(r.out.find("good: sh") == 0);
   }
   SECTION("a missing folder and bad options") {
-    Process missing({PEIS_INIT_PATH, dir.file("nope")});
-    REQUIRE(missing.wait(kDeadline) == 2);
-    CHECK(missing.err().find("not a folder of component files") != std::string::npos);
-    Process none({PEIS_INIT_PATH});
-    REQUIRE(none.wait(kDeadline) == 2);
-    CHECK(none.err() == "peis-init: FOLDER is missing (see --help)\n");
-    Process bad({PEIS_INIT_PATH, dir.path.string(), "--bogus"});
-    REQUIRE(bad.wait(kDeadline) == 2);
-    CHECK(bad.err() == "peis-init: unknown option --bogus (see --help)\n");
+    auto r = runToEnd({PEIS_INIT_PATH, dir.file("nope")});
+    CHECK(r.status == 2);
+    CHECK(r.err.find("not a folder of component files") != std::string::npos);
+    r = runToEnd({PEIS_INIT_PATH});
+    CHECK(r.status == 2);
+    CHECK(r.err == "peis-init: FOLDER is missing (see --help)\n");
+    r = runToEnd({PEIS_INIT_PATH, dir.path.string(), "--bogus"});
+    CHECK(r.status == 2);
+    CHECK(r.err == "peis-init: unknown option --bogus (see --help)\n");
   }
 }

@@ -22,16 +22,17 @@ using namespace std::chrono_literals;
 
 namespace {
 
-// A recorder process and the id it announces.
+// A recorder process of `writer`'s tuples `keys` into `file`, once its
+// subscription has reached the writer.
 struct RecorderProcess {
   std::unique_ptr<Process> process;
   peis::PeisId id = 0;
 
-  RecorderProcess(const std::string& ecology, std::vector<std::string> args) {
-    std::vector<std::string> argv{PEIS_RECORD_PATH};
-    argv.insert(argv.end(), args.begin(), args.end());
-    argv.insert(argv.end(), {"--peis-ecology", ecology});
-    process = std::make_unique<Process>(argv);
+  RecorderProcess(const std::string& ecology, peis::Kernel& writer, const std::string& keys,
+                  const std::string& file) {
+    process = std::make_unique<Process>(
+        std::vector<std::string>{PEIS_RECORD_PATH, std::to_string(writer.id()) + "." + keys, "-o",
+                                 file, "--peis-ecology", ecology});
     static const std::regex line(R"(peis-record: PEIS (\d+) records)");
     std::smatch match;
     waitFor(
@@ -43,6 +44,9 @@ struct RecorderProcess {
         kDeadline);
     INFO(process->describe());
     REQUIRE(id != 0);
+    REQUIRE(waitFor(
+        [&] { return listContains(valueOf(writer, writer.id(), "kernel.subscribers"), id); },
+        kDeadline));
   }
 };
 
@@ -87,11 +91,8 @@ TEST_CASE("record, inspect and replay: a subscriber sees the same sequence again
   {
     peis::Kernel writer(kernelOptions(ecology, "writer"));
     writerId = writer.id();
-    RecorderProcess recorder(ecology, {std::to_string(writerId) + ".seq.**", "-o", file});
+    RecorderProcess recorder(ecology, writer, "seq.**", file);
     StateReport report([&] { return recorder.process->describe(); });
-    REQUIRE_WAIT(
-        [&] { return listContains(valueOf(writer, writerId, "kernel.subscribers"), recorder.id); },
-        kDeadline);
     for (int i = 1; i <= 20; ++i) {
       writer.set("seq.a", std::to_string(i));
       written.push_back("seq.a=" + std::to_string(i));
@@ -190,10 +191,7 @@ TEST_CASE("the replay keeps the recorded timing", "[integration]") {
   {
     peis::Kernel writer(kernelOptions(ecology, "writer"));
     writerId = writer.id();
-    RecorderProcess recorder(ecology, {std::to_string(writerId) + ".t", "-o", file});
-    REQUIRE_WAIT(
-        [&] { return listContains(valueOf(writer, writerId, "kernel.subscribers"), recorder.id); },
-        kDeadline);
+    RecorderProcess recorder(ecology, writer, "t", file);
     writer.set("t", "1");
     REQUIRE_WAIT([&] { return eventsIn(file) == 1; }, kDeadline);  // some time passes
     writer.set("t", "2");
@@ -233,10 +231,7 @@ TEST_CASE("a stand-in replay is refused while the recorded owner is alive", "[in
   peis::Kernel writer(kernelOptions(ecology, "writer"));
   const auto writerId = writer.id();
   {
-    RecorderProcess recorder(ecology, {std::to_string(writerId) + ".x", "-o", file});
-    REQUIRE_WAIT(
-        [&] { return listContains(valueOf(writer, writerId, "kernel.subscribers"), recorder.id); },
-        kDeadline);
+    RecorderProcess recorder(ecology, writer, "x", file);
     writer.set("x", "1");
     REQUIRE_WAIT([&] { return eventsIn(file) == 1; }, kDeadline);
     recorder.process->kill(SIGINT);
@@ -255,7 +250,6 @@ TEST_CASE("a recorder killed with SIGKILL leaves an intact recording", "[fault]"
   const std::string ecology = uniqueEcology("record-kill");
   TempDir dir("record");
   peis::Kernel writer(kernelOptions(ecology, "writer"));
-  const auto writerId = writer.id();
   const auto integrity = [](const std::string& path) {
     peis::recorder::Database db(path, peis::recorder::Database::Mode::ReadOnly);
     auto check = db.prepare("PRAGMA integrity_check");
@@ -264,10 +258,7 @@ TEST_CASE("a recorder killed with SIGKILL leaves an intact recording", "[fault]"
 
   SECTION("killed while quiet: nothing is lost, though it never exited") {
     const std::string file = dir.file("quiet.db");
-    RecorderProcess recorder(ecology, {std::to_string(writerId) + ".n", "-o", file});
-    REQUIRE_WAIT(
-        [&] { return listContains(valueOf(writer, writerId, "kernel.subscribers"), recorder.id); },
-        kDeadline);
+    RecorderProcess recorder(ecology, writer, "n", file);
     for (int i = 1; i <= 100; ++i) writer.set("n", std::to_string(i));
     REQUIRE_WAIT([&] { return eventsIn(file) == 100; }, kDeadline);
     recorder.process->kill(SIGKILL);
@@ -281,10 +272,7 @@ TEST_CASE("a recorder killed with SIGKILL leaves an intact recording", "[fault]"
   }
   SECTION("killed mid-stream: an intact file, a gap-free prefix of the stream") {
     const std::string file = dir.file("stream.db");
-    RecorderProcess recorder(ecology, {std::to_string(writerId) + ".n", "-o", file});
-    REQUIRE_WAIT(
-        [&] { return listContains(valueOf(writer, writerId, "kernel.subscribers"), recorder.id); },
-        kDeadline);
+    RecorderProcess recorder(ecology, writer, "n", file);
     std::atomic<bool> stop{false};
     std::atomic<std::uint64_t> lastWritten{0};
     std::thread stream([&] {
