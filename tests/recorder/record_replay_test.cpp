@@ -183,6 +183,44 @@ TEST_CASE("record, inspect and replay: a subscriber sees the same sequence again
   }
 }
 
+TEST_CASE("record --duration stops by itself, replay --loop goes on until stopped",
+          "[integration]") {
+  const std::string ecology = uniqueEcology("record-loop");
+  TempDir dir("record");
+  const std::string file = dir.file("loop.db");
+  peis::PeisId writerId = 0;
+  {
+    peis::Kernel writer(kernelOptions(ecology, "writer"));
+    writerId = writer.id();
+    writer.set("v", "a");  // found by the subscription: recorded as the first value
+    Process recorder({PEIS_RECORD_PATH, std::to_string(writerId) + ".v", "-o", file, "--duration",
+                      "1", "--peis-ecology", ecology});
+    REQUIRE_WAIT([&] { return eventsIn(file) == 1; }, kDeadline);
+    writer.set("v", "b");
+    const auto status = recorder.wait(kDeadline);
+    INFO(recorder.describe());
+    REQUIRE(status == 0);
+    CHECK(recorder.err().find("--duration reached") != std::string::npos);
+  }
+  REQUIRE(eventsIn(file) == 2);
+  peis::Kernel subscriber(kernelOptions(ecology, "subscriber"));
+  Sequence sequence;
+  sequence.watch(subscriber, peis::Pattern("again.**"));
+  Process replay({PEIS_REPLAY_PATH, file, "--prefix", "again", "--loop", "--speed", "100",
+                  "--wait-subscribers", "1", "--peis-ecology", ecology});
+  StateReport report([&] { return replay.describe() + sequence.seen.text(); });
+  REQUIRE_WAIT([&] { return sequence.seen.entries().size() >= 6; }, kDeadline);
+  replay.kill(SIGINT);
+  const auto status = replay.wait(kDeadline);
+  REQUIRE(status == 0);
+  const std::string a = "again." + std::to_string(writerId) + ".v=a",
+                    b = "again." + std::to_string(writerId) + ".v=b";
+  const auto seen = sequence.seen.entries();
+  CHECK(std::vector<std::string>(seen.begin(), seen.begin() + 6) ==
+        std::vector<std::string>{a, b, a, b, a, b});
+  CHECK(std::regex_search(replay.err(), std::regex(R"(in [3-9]\d* pass\(es\)|in \d{2,} pass)")));
+}
+
 TEST_CASE("the replay keeps the recorded timing", "[integration]") {
   const std::string ecology = uniqueEcology("record-timing");
   TempDir dir("record");

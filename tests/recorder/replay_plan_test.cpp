@@ -23,7 +23,7 @@ TEST_CASE("replayed keys: stand-ins keep them, a prefix moves them", "[unit]") {
   CHECK(prefixProblem("a..b"));
 }
 
-TEST_CASE("replayed write options: recorded mimetype, encoding, ts_user; expiry as a ttl",
+TEST_CASE("replayed write options: recorded mimetype, encoding, ts_user, expiry as a ttl",
           "[unit]") {
   peis::Tuple t;
   t.mimetype = "image/png";
