@@ -277,8 +277,11 @@ Launcher::Launcher(Kernel& kernel, std::vector<ComponentFile> components, Launch
       k.set(keys::component(name, "stderr"), "");
       impl->sync(e);
     }
-    impl->requestCallback = k.onChange(Pattern("components.*.reqState", k.id()),
-                                       [impl](const Tuple& t) { impl->onRequest(t); });
+    // Not bound to the id: after an id re-pick the own tuples move, and
+    // requests must still reach the launcher.
+    impl->requestCallback = k.onChange(Pattern("components.*.reqState"), [impl](const Tuple& t) {
+      if (t.owner == impl->kernel.id()) impl->onRequest(t);
+    });
     // Every reqState is written (again) now, so the callback applies it: the
     // file's initial state, or a value set before (--peis-set-tuple).
     for (auto& [name, e] : impl->entries) {

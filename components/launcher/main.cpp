@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <memory>
 
 #include "common/command_line.h"
 #include "launcher/component_file.h"
@@ -106,7 +107,13 @@ int main(int argc, char** argv) {
     logDir = std::filesystem::absolute(logDir).string();
   }
 
-  peis::Kernel kernel(options);
+  std::unique_ptr<peis::Kernel> started;
+  try {
+    started = std::make_unique<peis::Kernel>(options);
+  } catch (const peis::Error& e) {  // a TCP port taken, a bad PEIS_DISCOVERY_SCOPE
+    return usageError(e.what());
+  }
+  peis::Kernel& kernel = *started;
   peis::Component self(kernel, "launcher");
   peis::launcher::LauncherSettings settings;
   settings.folder = std::filesystem::absolute(folder).lexically_normal().string();

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <future>
 #include <iostream>
+#include <memory>
 
 #include "common/command_line.h"
 #include "recorder/program_args.h"
@@ -94,7 +95,13 @@ int main(int argc, char** argv) {
     for (const char* suffix : {"", "-wal", "-shm"}) std::filesystem::remove(*output + suffix, ec);
   }
 
-  peis::Kernel kernel(options);
+  std::unique_ptr<peis::Kernel> joined;
+  try {
+    joined = std::make_unique<peis::Kernel>(options);
+  } catch (const peis::Error& e) {  // a TCP port taken, a bad PEIS_DISCOVERY_SCOPE
+    return usageError(e.what());
+  }
+  peis::Kernel& kernel = *joined;
   std::vector<peis::Pattern> patterns;
   std::string patternText;
   try {
@@ -103,7 +110,9 @@ int main(int argc, char** argv) {
       patternText += (patternText.empty() ? "" : " ") + patterns.back().str();
     }
   } catch (const peis::Error& e) {
-    return usageError(e.what());
+    if (e.code() != peis::ErrorCode::NotFound) return usageError(e.what());
+    std::cerr << "peis-record: " << e.what() << "\n";  // a name no reachable PEIS carries
+    return 1;
   }
 
   const auto hostname = kernel.get(peis::special::kHostname);

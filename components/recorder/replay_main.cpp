@@ -26,8 +26,8 @@ using peis::recorder::ProgramArgs;
 const char* kUsage = R"usage(Usage: peis-replay FILE.db [OPTIONS] [--peis-* flags]
        peis replay FILE.db [OPTIONS]
 
-Publishes the changes and deletions of a recording again, with the timing
-they were recorded with. Without --prefix each recorded owner gets a
+Publishes the changes and deletions of a recording again, each its recorded
+gap after the one before (divided by --speed). Without --prefix each recorded owner gets a
 stand-in: a PEIS with the owner's id and name that writes the tuples under
 their own keys (subscribers of the original see the replay). A recorded
 owner that is alive keeps its id: peis-replay then refuses, unless --prefix.
@@ -136,37 +136,41 @@ int main(int argc, char** argv) {
   }
 
   std::vector<Publisher> publishers;
-  if (prefix) {
-    publishers.push_back({std::make_unique<peis::Kernel>(options), 0});
-  } else {
-    {
-      // Is any recorded owner alive? Its id is then not ours to take.
-      peis::Options probeOptions = options;
-      probeOptions.tool = true;
-      probeOptions.name = "peis-replay-probe";
-      peis::Kernel probe(probeOptions);
-      std::string alive;
-      for (const auto& peer : settledPeers(
-               probe, std::chrono::milliseconds(static_cast<long long>(waitSeconds * 1000)))) {
-        if (owners.count(peer.id) && peer.id != probe.id())
-          alive += (alive.empty() ? "" : ", ") + std::to_string(peer.id) + " (" + peer.name + ")";
+  try {
+    if (prefix) {
+      publishers.push_back({std::make_unique<peis::Kernel>(options), 0});
+    } else {
+      {
+        // Is any recorded owner alive? Its id is then not ours to take.
+        peis::Options probeOptions = options;
+        probeOptions.tool = true;
+        probeOptions.name = "peis-replay-probe";
+        peis::Kernel probe(probeOptions);
+        std::string alive;
+        for (const auto& peer : settledPeers(
+                 probe, std::chrono::milliseconds(static_cast<long long>(waitSeconds * 1000)))) {
+          if (owners.count(peer.id) && peer.id != probe.id())
+            alive += (alive.empty() ? "" : ", ") + std::to_string(peer.id) + " (" + peer.name + ")";
+        }
+        if (!alive.empty()) {
+          std::cerr << "peis-replay: PEIS " << alive << " of the recording "
+                    << (alive.find(',') == std::string::npos ? "is" : "are")
+                    << " alive in ecology '" << options.ecology
+                    << "': a live PEIS keeps its id, so a stand-in cannot replay as it. Stop it, "
+                       "replay with --prefix P, or in another --peis-ecology.\n";
+          return 1;
+        }
       }
-      if (!alive.empty()) {
-        std::cerr << "peis-replay: PEIS " << alive << " of the recording "
-                  << (alive.find(',') == std::string::npos ? "is" : "are") << " alive in ecology '"
-                  << options.ecology
-                  << "': a live PEIS keeps its id, so a stand-in cannot replay as it. Stop it, "
-                     "replay with --prefix P, or in another --peis-ecology.\n";
-        return 1;
+      for (const auto& [owner, name] : owners) {
+        peis::Options o = options;
+        o.id = owner;
+        o.name = standInName(owner, name);
+        o.port = 0;
+        publishers.push_back({std::make_unique<peis::Kernel>(o), owner});
       }
     }
-    for (const auto& [owner, name] : owners) {
-      peis::Options o = options;
-      o.id = owner;
-      o.name = standInName(owner, name);
-      o.port = 0;
-      publishers.push_back({std::make_unique<peis::Kernel>(o), owner});
-    }
+  } catch (const peis::Error& e) {  // a TCP port taken, a bad PEIS_DISCOVERY_SCOPE
+    return usageError(e.what());
   }
   if (publishers.empty()) {
     std::cerr << "peis-replay: " << path << " holds no events\n";
@@ -194,53 +198,61 @@ int main(int argc, char** argv) {
       wake.wait_for(lock, 10ms, [&] { return stop; });
     }
     std::map<std::string, bool> reported;
-    const auto skip = [&](const std::string& why) {
+    const auto skip = [&](const std::string& why) -> void {
       ++skipped;
       if (!reported[why]) std::cerr << "peis-replay: skipping: " << why << std::endl;
       reported[why] = true;
+    };
+    // One recorded event, published by its owner's stand-in or the prefix PEIS.
+    const auto publish = [&](const peis::recorder::StoredEvent& e) {
+      Publisher* p = byOwner[prefix ? 0 : e.tuple.owner];
+      if (p == nullptr) return;
+      if (!prefix && !p->lost && p->kernel->id() != p->standsFor) {
+        p->lost = true;
+        std::cerr << "peis-replay: a live PEIS " << p->standsFor
+                  << " appeared and keeps its id; its stand-in (now PEIS " << p->kernel->id()
+                  << ") stops replaying" << std::endl;
+      }
+      if (p->lost) {
+        ++skipped;
+        return;
+      }
+      std::string why;
+      const auto key = peis::recorder::replayKey(e.tuple.owner, e.tuple.key, prefix, &why);
+      if (!key) return skip(e.tuple.fullName() + ": " + why);
+      try {
+        if (e.deleted) {
+          p->kernel->erase(*key);
+          ++deleted;
+        } else {
+          p->kernel->set(*key, e.tuple.data, peis::recorder::replayOptions(e.tuple));
+        }
+        ++replayed;
+      } catch (const peis::Error& error) {
+        skip(e.tuple.fullName() + ": " + error.what());
+      }
     };
     try {
       do {
         reader->rewind();
         peis::recorder::StoredEvent e;
-        std::optional<peis::Timestamp> first;
-        const auto start = std::chrono::steady_clock::now();
+        // Each event comes its recorded gap (divided by the speed) after the
+        // previous one was published: a stall delays what follows rather
+        // than bunching it up.
+        std::optional<peis::Timestamp> previousReceived;
+        auto previousDone = std::chrono::steady_clock::now();
         while (!stopped() && reader->next(e)) {
-          if (!first) first = e.received;
-          const auto due = start + peis::recorder::replayOffset(e.received, *first, speed);
+          const auto due =
+              previousDone +
+              (previousReceived ? peis::recorder::replayOffset(e.received, *previousReceived, speed)
+                                : std::chrono::microseconds(0));
           {
             std::unique_lock lock(mu);
             if (wake.wait_until(lock, due, [&] { return stop; })) break;
           }
-          Publisher* p = byOwner[prefix ? 0 : e.tuple.owner];
-          if (p == nullptr) continue;
-          if (!prefix && !p->lost && p->kernel->id() != p->standsFor) {
-            p->lost = true;
-            std::cerr << "peis-replay: a live PEIS " << p->standsFor
-                      << " appeared and keeps its id; its stand-in (now PEIS " << p->kernel->id()
-                      << ") stops replaying" << std::endl;
-          }
-          if (p->lost) {
-            ++skipped;
-            continue;
-          }
-          std::string why;
-          const auto key = peis::recorder::replayKey(e.tuple.owner, e.tuple.key, prefix, &why);
-          if (!key) {
-            skip(e.tuple.fullName() + ": " + why);
-            continue;
-          }
-          try {
-            if (e.deleted) {
-              p->kernel->erase(*key);
-              ++deleted;
-            } else {
-              p->kernel->set(*key, e.tuple.data, peis::recorder::replayOptions(e.tuple));
-            }
-            ++replayed;
-          } catch (const peis::Error& error) {
-            skip(e.tuple.fullName() + ": " + error.what());
-          }
+          publish(e);
+          previousReceived = e.received;
+          previousDone = std::chrono::steady_clock::now();
         }
         ++loops;
       } while (args.has("--loop") && !stopped());

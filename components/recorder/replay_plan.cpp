@@ -36,8 +36,8 @@ WriteOptions replayOptions(const Tuple& recorded) {
   return options;
 }
 
-std::chrono::microseconds replayOffset(Timestamp received, Timestamp first, double speed) {
-  const double us = static_cast<double>((received - first).count()) / speed;
+std::chrono::microseconds replayOffset(Timestamp received, Timestamp earlier, double speed) {
+  const double us = static_cast<double>((received - earlier).count()) / speed;
   return std::chrono::microseconds(us <= 0 ? 0 : static_cast<long long>(std::llround(us)));
 }
 

@@ -1,6 +1,6 @@
 // The pure rules of peis-replay: under which key a recorded tuple is
-// published again, with which write options, and when (its offset in the
-// recording divided by the speed).
+// published again, with which write options, and when (its recorded gap to
+// the event before, divided by the speed).
 #pragma once
 
 #include <peis/tuple.h>
@@ -23,8 +23,9 @@ std::optional<std::string> replayKey(PeisId owner, const std::string& key,
 // time to live after the new write (ts_expire - ts_write).
 WriteOptions replayOptions(const Tuple& recorded);
 
-// When an event received at `received` is due, after the first at `first`.
-std::chrono::microseconds replayOffset(Timestamp received, Timestamp first, double speed);
+// How long after an event received at `earlier` one received at `received`
+// is due: their recorded gap divided by the speed (never negative).
+std::chrono::microseconds replayOffset(Timestamp received, Timestamp earlier, double speed);
 
 // A --prefix value: a valid key (no wildcards). Nothing, or why not.
 std::optional<std::string> prefixProblem(const std::string& prefix);

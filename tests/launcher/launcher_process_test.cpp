@@ -260,5 +260,11 @@ TEST_CASE("peis-init refuses broken and unknown component files with file:line",
     r = runToEnd({PEIS_INIT_PATH, dir.path.string(), "--bogus"});
     CHECK(r.status == 2);
     CHECK(r.err == "peis-init: unknown option --bogus (see --help)\n");
+    peis::Options taken;
+    taken.discovery = false;
+    peis::Kernel holder(taken);  // holds a TCP port
+    r = runToEnd({PEIS_INIT_PATH, dir.path.string(), "--peis-port", std::to_string(holder.port())});
+    CHECK(r.status == 2);
+    CHECK(r.err.find("peis-init: ") == 0);
   }
 }

@@ -256,8 +256,9 @@ TEST_CASE("the replay keeps the recorded timing", "[integration]") {
   REQUIRE_WAIT([&] { return stamps.entries().size() == 2; }, kDeadline);
   const auto replayedGap =
       std::chrono::microseconds(std::stoll(stamps.entries()[1]) - std::stoll(stamps.entries()[0]));
-  // A replay may be late on a loaded machine, never early: the gap is at
-  // least the recorded one divided by the speed (1 ms for clock steps).
+  // A replay may be late on a loaded machine, never faster: each event comes
+  // at least its recorded gap after the one before, divided by the speed
+  // (1 ms for the rounding of stamps).
   INFO("recorded gap " << recordedGap.count() << " us, replayed " << replayedGap.count() << " us");
   CHECK(replayedGap >= recordedGap / 2 - 1ms);
 }

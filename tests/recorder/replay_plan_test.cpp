@@ -39,13 +39,13 @@ TEST_CASE("replayed write options: recorded mimetype, encoding, ts_user, expiry 
   CHECK(replayOptions(t).ttl == 2s);
 }
 
-TEST_CASE("replay timing: the recorded offset divided by the speed", "[unit]") {
+TEST_CASE("replay timing: the recorded gap divided by the speed", "[unit]") {
   const peis::Timestamp first(100s);
   CHECK(replayOffset(first, first, 1) == 0us);
   CHECK(replayOffset(first + 3s, first, 1) == 3s);
   CHECK(replayOffset(first + 3s, first, 2) == 1500ms);
   CHECK(replayOffset(first + 3s, first, 0.5) == 6s);
-  CHECK(replayOffset(first - 1s, first, 1) == 0us);  // never before the start
+  CHECK(replayOffset(first - 1s, first, 1) == 0us);  // never negative
 }
 
 TEST_CASE("the recording programs' command lines", "[unit]") {
