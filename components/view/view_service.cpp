@@ -91,6 +91,7 @@ struct ViewService::Impl {
   std::map<PeisId, std::map<std::string, std::string>> metaSubscriptions;  // key -> subscription
   std::map<TupleRef, CachedPicture> pictures;
   SteadyClock::time_point lastSecond{};
+  SteadyClock::time_point lastGraph{};
   std::uint64_t publishedClients = ~0ull, publishedDropped = ~0ull;
   std::vector<CallbackHandle> callbacks;
 
@@ -222,10 +223,10 @@ void ViewService::Impl::start() {
   for (const auto& filter : metaFilters) subscriptions->acquire(filter.pattern, now);
   const auto period =
       std::chrono::milliseconds(std::max<long>(1, static_cast<long>(1000.0 / settings.updateRate)));
+  kernel.set("view.url", "http://127.0.0.1:" + std::to_string(server->port()) + "/");
+  publishCounters();  // from here on only on the server thread
   server->every(period, [this] { tick(); });
   server->start();
-  kernel.set("view.url", "http://127.0.0.1:" + std::to_string(server->port()) + "/");
-  publishCounters();
 }
 
 void ViewService::Impl::publishCounters() {
@@ -304,9 +305,14 @@ void ViewService::Impl::rebuildGraph(const std::vector<PeerInfo>& peers) {
 void ViewService::Impl::tick() {
   const auto steadyNow = SteadyClock::now();
   const Timestamp now = systemNow();
-  const auto peers = kernel.peers();
-  followMetaInputs(peers, steadyNow);
-  rebuildGraph(peers);
+  // The graph and the meta tuples to follow, at most five times a second
+  // whatever --rate is: reading the routing table takes the kernel's lock.
+  if (steadyNow - lastGraph >= std::chrono::milliseconds(200)) {
+    lastGraph = steadyNow;
+    const auto peers = kernel.peers();
+    followMetaInputs(peers, steadyNow);
+    rebuildGraph(peers);
+  }
   for (auto& [id, page] : pages) {
     auto client = page.client.lock();
     if (!client || client->closed() || !client->idle()) continue;

@@ -222,7 +222,7 @@ TEST_CASE("the store hands out at most maxRows rows and goes on from there", "[u
   CHECK(calls == 3);
 }
 
-TEST_CASE("numeric tuples keep a bounded history; meta-level changes a bounded log", "[unit]") {
+TEST_CASE("numeric tuples keep a bounded history, meta-level changes a bounded log", "[unit]") {
   StoreLimits limits;
   limits.historySamples = 5;
   limits.logEntries = 3;
@@ -494,7 +494,7 @@ TEST_CASE("HTTP targets and the local-only checks", "[unit]") {
   CHECK_FALSE(isLocalOrigin("null"));
 }
 
-TEST_CASE("raw camera images become PNG; what is not a picture is refused", "[unit]") {
+TEST_CASE("raw camera images become PNG, what is not a picture is refused", "[unit]") {
   cv::Mat image(4, 6, CV_8UC3, cv::Scalar(10, 200, 30));
   const auto raw = camera::encodeImage(image, camera::ImageFormat::Raw);
   std::string why;

@@ -248,7 +248,7 @@ TEST_CASE("peis-view serves its page, lists the ecology and shows a change live"
   CHECK(view.process->running());
 }
 
-TEST_CASE("an edit on the page reaches the owner; the owner's refusal comes back",
+TEST_CASE("an edit on the page reaches the owner, and the owner refusing one comes back",
           "[integration]") {
   const auto ecology = uniqueEcology("view-edit");
   auto lamp = startNode(ecology, {"--peis-name", "lamp", "--peis-set-tuple", "light=off"});
@@ -354,7 +354,7 @@ TEST_CASE("bad messages from a page get clear errors and never stop the view", "
   CHECK(statOf(view.port, "refusedRequests") >= 2);
 }
 
-TEST_CASE("a page that stops reading is dropped and counted; the others go on", "[fault]") {
+TEST_CASE("a page that stops reading is dropped and counted, the others go on", "[fault]") {
   const auto ecology = uniqueEcology("view-slow");
   auto node = startNode(ecology, {"--peis-name", "node", "--peis-set-tuple", "x=1"});
   const auto n = awaitNode(*node);
@@ -424,7 +424,7 @@ TEST_CASE("a burst of writes reaches a page coalesced, ending at the last value"
   CHECK(rowsSeen < kWrites);
 }
 
-TEST_CASE("image tuples are served as pictures; raw camera images as PNG", "[integration]") {
+TEST_CASE("image tuples are served as pictures, raw camera images as PNG", "[integration]") {
   const auto ecology = uniqueEcology("view-image");
   auto node = startNode(ecology, {"--peis-name", "camera", "--peis-set-tuple", "note=hello"});
   const auto n = awaitNode(*node);
@@ -464,7 +464,7 @@ TEST_CASE("image tuples are served as pictures; raw camera images as PNG", "[int
   CHECK(stringOf(reply.member("code")) == "binary");
 }
 
-TEST_CASE("peis view runs peis-view, prints the URL; bad options exit 2", "[integration]") {
+TEST_CASE("peis view runs peis-view and prints the URL, bad options exit 2", "[integration]") {
   const auto ecology = uniqueEcology("view-cli");
   const std::string dir = viewPath().substr(0, viewPath().rfind('/'));
   const Process::Environment env{{"PEIS_EXEC_PATH", dir}};

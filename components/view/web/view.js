@@ -610,7 +610,7 @@
       return;
     }
     const cx = width / 2, cy = height / 2;
-    const radius = nodes.length === 1 ? 0 : Math.min(width, height) / 2 - 48;
+    const radius = nodes.length === 1 ? 0 : Math.min(width * 0.9, height) / 2 - 30;
     const position = new Map();
     nodes.forEach((n, i) => {
       const a = -Math.PI / 2 + 2 * Math.PI * i / nodes.length;
@@ -666,11 +666,10 @@
           (n.component ? '\ncomponent ' + n.component : '') + (n.status ? '\nstatus ' + n.status : '') +
           (n.causes ? '\ncause.names ' + n.causes : '') + '\nhops ' + n.hops + (n.tool ? '\na tool' : '');
       circle.appendChild(title);
-      const name = svg('text', { y: nodeRadius + 13 });
+      // Names outside the circle, away from its centre, so they do not cross links.
+      const name = svg('text', { y: y >= cy ? nodeRadius + 13 : -nodeRadius - 5 });
       name.textContent = n.name;
-      const id = svg('text', { y: nodeRadius + 25, class: 'id' });
-      id.textContent = n.id + (n.status ? ' · ' + n.status : '');
-      g.append(circle, name, id);
+      g.append(circle, name);
       box.appendChild(g);
     }
   }
