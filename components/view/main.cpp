@@ -10,6 +10,7 @@
 #include <cstring>
 #include <iostream>
 #include <string>
+#include <thread>
 
 #include "common/command_line.h"
 #include "peis/kernel.h"
@@ -66,7 +67,9 @@ void openInBrowser(const std::string& url) {
   if (error != 0) {
     std::cerr << "peis view: cannot open a browser (xdg-open: " << std::strerror(error)
               << "); open " << url << " yourself\n";
+    return;
   }
+  std::thread([pid] { waitpid(pid, nullptr, 0); }).detach();  // reaped when it ends
 }
 
 }  // namespace

@@ -32,6 +32,7 @@ struct WebServer::Impl {
   WebStats stats;
   tcp::acceptor acceptor{io};
   std::thread thread;
+  std::uint16_t port = 0;  // the one bound, read from any thread
   std::uint64_t nextClientId = 1;
   // Every open WebSocket client, for the stall check.
   std::map<std::uint64_t, std::weak_ptr<class WsSession>> clients;
@@ -366,6 +367,7 @@ WebServer::WebServer(const std::string& address, std::uint16_t port, WebLimits l
     throw std::runtime_error("cannot listen on " + address + ":" + std::to_string(port) + ": " +
                              ec.message());
   }
+  impl_->port = impl_->acceptor.local_endpoint().port();
 }
 
 WebServer::~WebServer() {
@@ -373,7 +375,7 @@ WebServer::~WebServer() {
   if (impl_->thread.joinable()) impl_->thread.join();
 }
 
-std::uint16_t WebServer::port() const { return impl_->acceptor.local_endpoint().port(); }
+std::uint16_t WebServer::port() const { return impl_->port; }
 
 void WebServer::start() {
   impl_->accept();
