@@ -244,49 +244,45 @@ std::string encodeGraph(const Graph& graph, PeisId self) {
   return w.take();
 }
 
-std::string encodeGetReply(std::uint64_t request, const std::string& tuple,
-                           const std::string& value, const std::string& mimetype,
-                           std::uint64_t seqno) {
-  json::Writer w;
-  w.beginObject();
-  w.key("type").string("reply");
-  w.key("op").string("get");
-  w.key("request").unsignedInteger(request);
-  w.key("ok").boolean(true);
-  w.key("tuple").string(tuple);
-  w.key("value").string(value);
-  w.key("mimetype").string(mimetype);
-  w.key("seqno").unsignedInteger(seqno);
-  w.endObject();
-  return w.take();
-}
+namespace {
 
-std::string encodeSetReply(std::uint64_t request, const std::string& tuple, std::uint64_t seqno) {
-  json::Writer w;
-  w.beginObject();
-  w.key("type").string("reply");
-  w.key("op").string("set");
-  w.key("request").unsignedInteger(request);
-  w.key("ok").boolean(true);
-  w.key("tuple").string(tuple);
-  w.key("seqno").unsignedInteger(seqno);
-  w.endObject();
-  return w.take();
-}
-
-std::string encodeReplyError(std::uint64_t request, const std::string& op, const std::string& tuple,
-                             const std::string& error, const std::string& code) {
+// A reply's opening fields; the caller adds its own and ends the object.
+json::Writer replyHead(const std::string& op, std::uint64_t request, bool ok,
+                       const std::string& tuple) {
   json::Writer w;
   w.beginObject();
   w.key("type").string("reply");
   w.key("op").string(op);
   w.key("request").unsignedInteger(request);
-  w.key("ok").boolean(false);
+  w.key("ok").boolean(ok);
   w.key("tuple").string(tuple);
+  return w;
+}
+
+}  // namespace
+
+std::string encodeGetReply(std::uint64_t request, const std::string& tuple,
+                           const std::string& value, const std::string& mimetype,
+                           std::uint64_t seqno) {
+  json::Writer w = replyHead("get", request, true, tuple);
+  w.key("value").string(value);
+  w.key("mimetype").string(mimetype);
+  w.key("seqno").unsignedInteger(seqno);
+  return w.endObject().take();
+}
+
+std::string encodeSetReply(std::uint64_t request, const std::string& tuple, std::uint64_t seqno) {
+  json::Writer w = replyHead("set", request, true, tuple);
+  w.key("seqno").unsignedInteger(seqno);
+  return w.endObject().take();
+}
+
+std::string encodeReplyError(std::uint64_t request, const std::string& op, const std::string& tuple,
+                             const std::string& error, const std::string& code) {
+  json::Writer w = replyHead(op, request, false, tuple);
   w.key("error").string(error);
   w.key("code").string(code);
-  w.endObject();
-  return w.take();
+  return w.endObject().take();
 }
 
 std::string encodeError(const CommandError& error) {

@@ -513,14 +513,22 @@ HttpReply ViewService::Impl::picture(const std::string& query) {
   } catch (const Error& e) {
     return errorReply(400, e.what());
   }
-  const auto tuple = kernel.get(ref.owner, ref.key);
-  if (!tuple) return errorReply(404, "the view holds no value of " + ref.str());
+  // The picture made last is served again while it is the latest, or was
+  // made less than 1/--image-rate ago: then the data is not even copied.
+  std::optional<std::uint64_t> seqno;
+  {
+    std::lock_guard lock(shared->storeMu);
+    const StoredTuple* stored = shared->store.find(ref.owner, ref.key);
+    if (stored && !stored->deleted) seqno = stored->seqno;
+  }
   const auto now = SteadyClock::now();
   const auto minInterval = std::chrono::duration<double>(1.0 / settings.imageRate);
   auto cached = pictures.find(ref);
-  const bool fresh = cached != pictures.end() && (cached->second.seqno == tuple->seqno ||
-                                                  now - cached->second.made < minInterval);
+  const bool fresh = seqno && cached != pictures.end() &&
+                     (cached->second.seqno == *seqno || now - cached->second.made < minInterval);
   if (!fresh) {
+    const auto tuple = kernel.get(ref.owner, ref.key);
+    if (!tuple) return errorReply(404, "the view holds no value of " + ref.str());
     std::string why;
     auto converted = toPicture(tuple->mimetype, tuple->data, why);
     if (!converted) return errorReply(415, ref.str() + ": " + why);
