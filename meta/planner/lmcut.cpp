@@ -1,10 +1,11 @@
 // LM-cut: h^max, a cut between the facts reached from the start and the goal
 // zone of the justification graph, the cut's cheapest action cost added to h
-// and subtracted from the cut's actions; then h^max afresh, until the goal
-// costs nothing more. The supporter of an action (its precondition of
-// maximal h^max) is, among equals, the one reached last: with free actions
-// expanded at once, that is the one behind the longest free chain, which
-// gives markedly stronger bounds on configuration problems than the first.
+// and subtracted from the cut's actions; then h^max again (afresh, or
+// updated from the cut only), until the goal costs nothing more. The
+// supporter of an action (its precondition of maximal h^max) is, among
+// equals, the one reached last, free actions being expanded at once (depth
+// first): on configuration problems that gives markedly stronger bounds
+// than the first (docs/configuration.md, "How the planner works").
 #include "planner/lmcut.h"
 
 #include <algorithm>
