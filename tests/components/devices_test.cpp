@@ -154,3 +154,38 @@ TEST_CASE("a tiny plant reads the world's light through its sensor file", "[inte
   CHECK(std::abs(seen - level) <= std::max(5L, level / 20));
   CHECK(out.find("plant tilt 0") != std::string::npos);  // asks the blind to close
 }
+
+TEST_CASE("a frozen sensor keeps its last reading until it thaws", "[fault]") {
+  Home home("freeze");
+  peis::test::TempDir dir("freeze");
+  const std::string file = dir.file("plant.sensors");
+  home.start(programPath("peis-sim-world"), {"--speed", "2"});
+  home.start(programPath("peis-sim-sensors"),
+             {"--peis-name", "sensors", "--light", "plant=" + file, "--lux-per-level", "2"});
+  const peis::PeisId world = home.await("world"), sensors = home.await("sensors");
+  REQUIRE(world != 0);
+  REQUIRE(sensors != 0);
+  auto level = [&]() -> long {
+    std::ifstream in(file);
+    std::string word;
+    long value = -1;
+    in >> word >> value;
+    return word == "light" ? value : -1;
+  };
+  home.observer->set(world, "physics.daylight", "40000");
+  REQUIRE(waitFor([&] { return level() > 700; }, 30s));
+  home.observer->set(sensors, "fault.freeze", "on");
+  const long stuck = level();
+  // Night falls; the frozen sensor still reads the sun.
+  home.observer->subscribe(peis::Pattern("physics.light.plant", world));
+  home.observer->set(world, "physics.daylight", "0");
+  REQUIRE(waitFor(
+      [&] {
+        const auto lux = home.observer->get(world, "physics.light.plant");
+        return lux && std::stod(lux->data) < 50;
+      },
+      30s));
+  CHECK_FALSE(waitFor([&] { return level() != stuck; }, 3s));
+  home.observer->set(sensors, "fault.freeze", "off");
+  CHECK(waitFor([&] { return level() >= 0 && level() < 50; }, 30s));
+}
