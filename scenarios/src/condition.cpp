@@ -85,6 +85,7 @@ Verdict evaluate(const Test& test, const std::optional<std::string>& selected,
   const std::string& s = *selected;
   switch (test.kind) {
     case TestKind::Present:
+    case TestKind::Changes:  // the tracker calls it only for a new value
       return {true, "'" + shorten(s) + "'"};
     case TestKind::Equals:
       return {s == test.text, "'" + shorten(s) + "'"};
@@ -122,6 +123,9 @@ std::string describe(const Test& test) {
   switch (test.kind) {
     case TestKind::Present:
       out << "present";
+      break;
+    case TestKind::Changes:
+      out << "changing";
       break;
     case TestKind::Equals:
       out << "equal to '" << test.text << "'";

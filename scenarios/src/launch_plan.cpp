@@ -179,8 +179,17 @@ LaunchPlan planLaunches(const Scenario& scenario, const RunContext& context,
     const auto tool = finder.find(kEmulatorTool);
     if (!tool)
       error("tiny node '" + p.name + "' on: avr needs the simavr_uart_socket tool (libsimavr-dev)");
-    emulator.argv = {tool.value_or(kEmulatorTool), "--socket",    socket, "--mcu", "atmega128",
-                     "--freq",                     "16000000", firmware.value_or(p.tiny + ".elf")};
+    // Paced to real time; it runs until the runner stops it (a day at most).
+    emulator.argv = {tool.value_or(kEmulatorTool),
+                     "--socket",
+                     socket,
+                     "--mcu",
+                     "atmega128",
+                     "--freq",
+                     "16000000",
+                     "--time-limit",
+                     "86400",
+                     firmware.value_or(p.tiny + ".elf")};
     emulator.env = env;
     emulator.joinId = p.id;
     plan.launches.push_back(std::move(emulator));

@@ -150,9 +150,12 @@ int main(int argc, char** argv) {
     return command == "check" ? 1 : kBadScenario;
   }
   if (command == "check") {
+    auto count = [](std::size_t n, const std::string& what) {
+      return std::to_string(n) + " " + what + (n == 1 ? "" : "s");
+    };
     std::cout << file << ": valid (" << scenario.peis.size() + (scenario.world ? 1 : 0) << " PEIS, "
-              << scenario.goals.size() << " goals, " << scenario.faults.size() << " faults, "
-              << scenario.success.size() << " success conditions)\n";
+              << count(scenario.goals.size(), "goal") << ", " << count(scenario.faults.size(), "fault")
+              << ", " << count(scenario.success.size(), "success condition") << ")\n";
     return 0;
   }
   if (!traceGiven) options.tracePath = scenario.name + ".trace.sqlite";

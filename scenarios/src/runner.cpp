@@ -281,6 +281,12 @@ class Runner {
         exitReported_[i] = true;
         say(plan_.launches[i].label, "exited: " + children_[i]->exitText());
       }
+      std::vector<ConditionTracker::Held> held;
+      {
+        std::lock_guard lock(mu_);
+        held = tracker_.advance(now);
+      }
+      reportHeld(held);
       std::lock_guard lock(mu_);
       if (tracker_.allHeld()) {
         sayLocked("scenario", "SUCCESS: every success condition held");
@@ -484,8 +490,9 @@ class Runner {
     traceOwner(p);
   }
 
-  // The trace subscribes to every tuple of every PEIS, except keys matching
-  // a skip glob (whose PEIS it then follows key by key).
+  // The runner subscribes to every tuple of every PEIS, for the trace and
+  // the configuration changes on the timeline, except keys matching a skip
+  // glob (whose PEIS it then follows key by key).
   bool skipped(const std::string& owner, PeisId id, const std::string& key) const {
     for (const auto& glob : scenario_.trace.skip) {
       for (const auto& name : {owner, std::to_string(id)}) {
@@ -496,7 +503,6 @@ class Runner {
   }
 
   void traceOwner(const PeerInfo& p) {
-    if (!trace_) return;
     bool mayHaveSkips = false;
     for (const auto& glob : scenario_.trace.skip) {
       const auto owner = glob.substr(0, glob.find('.'));
@@ -531,9 +537,20 @@ class Runner {
   // (meta tuples) also go on the timeline.
   void record(const Tuple& t, bool deleted) {
     const auto now = clock_.now();
-    trace_->tuple(t, deleted, now);
+    if (trace_) trace_->tuple(t, deleted, now);
     if (deleted || t.mimetype != kMetaMimetype) return;
-    if (t.data.empty() && !now) return;  // inputs declared at start
+    {
+      // An input declared empty at start is no configuration.
+      std::lock_guard lock(mu_);
+      const auto key = std::pair{t.owner, t.key};
+      const auto last = lastMeta_.find(key);
+      const bool known = last != lastMeta_.end();
+      if ((known && last->second == t.data) || (!known && t.data.empty())) {
+        lastMeta_[key] = t.data;
+        return;
+      }
+      lastMeta_[key] = t.data;
+    }
     std::string target = "nothing";
     if (!t.data.empty()) {
       target = t.data;
@@ -583,7 +600,7 @@ class Runner {
       shown.data = *selected;
       std::string words = n.say;
       for (std::size_t at; (at = words.find("{value}")) != std::string::npos;)
-        words.replace(at, 7, formatValue(shown, 40));
+        words.replace(at, 7, formatValue(shown, 80));
       say(owner, words, owner + "." + key + " = " + formatValue(*t));
     }
     std::vector<ConditionTracker::Held> held;
@@ -760,6 +777,7 @@ class Runner {
   std::set<std::string> peerNames_;      // the PEIS names seen
   std::set<PeisId> present_;
   std::set<std::pair<PeisId, std::string>> tracedKeys_;
+  std::map<std::pair<PeisId, std::string>, std::string> lastMeta_;  // meta tuples seen
   std::vector<std::string> lastNarrated_;
   std::string lastFault_;
   std::optional<double> lastFaultAt_;

@@ -81,7 +81,8 @@ struct Selector {
   bool empty() const { return line.empty() && !field; }
 };
 
-enum class TestKind { Equals, Matches, Above, Below, Near, Present };
+// Changes: a new value arrives (after the condition was armed).
+enum class TestKind { Equals, Matches, Above, Below, Near, Present, Changes };
 
 struct Test {
   TestKind kind = TestKind::Present;
@@ -98,6 +99,7 @@ struct Condition {
   Selector select;
   Test test;
   std::optional<double> by;  // deadline, scenario seconds (else the scenario's)
+  double from = 0;           // tested only from this scenario time on
   std::string after;         // another condition that must have held first
 };
 

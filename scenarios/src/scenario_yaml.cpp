@@ -100,7 +100,8 @@ class Reader {
   std::string file_;
 };
 
-const std::set<std::string> kTestKeys{"equals", "matches", "above", "below", "near", "present"};
+const std::set<std::string> kTestKeys{"equals", "matches", "above", "below",
+                                      "near",   "present", "changes"};
 
 Selector readSelector(const Reader& r, const YAML::Node& map) {
   Selector s;
@@ -133,6 +134,9 @@ std::optional<Test> readTest(const Reader& r, const YAML::Node& map, const std::
     } else if (key == "present") {
       t.kind = TestKind::Present;
       if (r.text(v, "present") != "true") r.fail(v, "present takes true");
+    } else if (key == "changes") {
+      t.kind = TestKind::Changes;
+      if (r.text(v, "changes") != "true") r.fail(v, "changes takes true");
     } else {  // near
       t.kind = TestKind::Near;
       r.onlyKeys(v, {"point", "tuple", "within"}, "near");
@@ -275,7 +279,7 @@ Narration readNarration(const Reader& r, const YAML::Node& n) {
 }
 
 Condition readCondition(const Reader& r, const YAML::Node& n) {
-  std::set<std::string> known{"name", "tuple", "line", "field", "by", "after"};
+  std::set<std::string> known{"name", "tuple", "line", "field", "by", "from", "after"};
   known.insert(kTestKeys.begin(), kTestKeys.end());
   r.onlyKeys(n, known, "a success condition");
   Condition c;
@@ -290,7 +294,10 @@ Condition readCondition(const Reader& r, const YAML::Node& n) {
     r.fail(n, "condition '" + c.name + "' needs a test: equals, matches, above, below, near or present");
   c.test = *test;
   if (n["by"]) c.by = r.numberIn(n["by"], 0, 1e7, "by");
+  if (n["from"]) c.from = r.numberIn(n["from"], 0, 1e7, "from");
   if (n["after"]) c.after = r.text(n["after"], "after");
+  if (c.by && *c.by < c.from)
+    r.fail(n["by"], "condition '" + c.name + "' ends (by) before it starts (from)");
   return c;
 }
 

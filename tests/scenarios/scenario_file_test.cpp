@@ -284,6 +284,8 @@ success:
   REQUIRE(plan.launches.size() == 2);
   CHECK(plan.launches[0].role == LaunchRole::Emulator);
   CHECK(plan.launches[0].argv.back() == avr + "/blind.elf");
+  CHECK(std::find(plan.launches[0].argv.begin(), plan.launches[0].argv.end(), "--time-limit") !=
+        plan.launches[0].argv.end());
   CHECK(plan.launches[0].joinId == 4);
   CHECK(plan.launches[1].label == "blind-gateway");
   CHECK(plan.launches[1].argv[1] == "--link");
@@ -448,4 +450,33 @@ TEST_CASE("scenario: the trace holds every tuple change and the timeline and the
   CHECK(one("SELECT words FROM timeline") == "drives to the bed");
   CHECK(one("SELECT held || ' ' || detail FROM conditions") == "1 0.05 m");
   sqlite3_close(db);
+}
+
+TEST_CASE("scenario: from and changes judge what happens after a time", "[unit][scenario]") {
+  const Scenario s = parseScenario(R"(name: repair
+success:
+  - {name: re-pointed, tuple: vac.mi-position, changes: true, from: 60, by: 120}
+  - {name: fresh again, tuple: vac.status, equals: running, after: re-pointed, by: 150}
+)",
+                                   "r.yaml");
+  REQUIRE(s.success[0].test.kind == TestKind::Changes);
+  CHECK(s.success[0].from == 60);
+  ConditionTracker tracker(s.success, s.deadline);
+  tracker.value("vac", "mi-position", std::string("20.position.vac"), 0);
+  tracker.value("vac", "status", std::string("running"), 0);
+  CHECK(tracker.start(0).empty());
+  // A change before `from` does not count, nor does the value at arming.
+  CHECK(tracker.value("vac", "mi-position", std::string("20.position.vac"), 30).empty());
+  CHECK(tracker.advance(60).empty());
+  CHECK(tracker.value("vac", "status", std::string("waiting"), 62).empty());
+  const auto held = tracker.value("vac", "mi-position", std::string("21.position.vac"), 64);
+  REQUIRE(held.size() == 1);
+  CHECK(held[0].name == "re-pointed");
+  CHECK_FALSE(tracker.allHeld());  // status says waiting
+  const auto fresh = tracker.value("vac", "status", std::string("running"), 65);
+  REQUIRE(fresh.size() == 1);
+  CHECK(fresh[0].at == 65);
+  CHECK(tracker.allHeld());
+  CHECK_THAT(errorOf("name: x\nsuccess:\n  - {name: c, tuple: a.b, changes: true, from: 9, by: 3}\n"),
+             Contains("ends (by) before it starts (from)"));
 }

@@ -298,5 +298,5 @@ TEST_CASE("scenario: peis scenario runs peis-scenario", "[integration][scenario]
   const std::string scenarioDir = std::filesystem::path(PEIS_SCENARIO_PATH).parent_path();
   Process peis({PEIS_CLI_PATH, "scenario", "check", file}, {{"PEIS_EXEC_PATH", scenarioDir}});
   REQUIRE(peis.wait(30s) == std::optional<int>(0));
-  CHECK_THAT(peis.out(), Contains(file + ": valid (2 PEIS, 1 goals, 0 faults, 2 success conditions)"));
+  CHECK_THAT(peis.out(), Contains(file + ": valid (2 PEIS, 1 goal, 0 faults, 2 success conditions)"));
 }
