@@ -119,6 +119,34 @@ TEST_CASE("the vacuum needs a position to clean and decides push or avoid from a
       30s));
 }
 
+TEST_CASE("the vacuum waits a while for the first position of a configured input",
+          "[integration]") {
+  Home home("vacuum-wait");
+  home.start(programPath("peis-sim-world"), {"--speed", "2"});
+  auto& vac = home.start(programPath("peis-vacuum"), {"--peis-name", "vacuum", "--base",
+                                                      "vacuum-base", "--position-wait", "3"});
+  const peis::PeisId vacuum = home.await("vacuum");
+  REQUIRE(vacuum != 0);
+  REQUIRE(home.await("world") != 0);
+  home.observer->subscribe(peis::Pattern("ExecStatus", vacuum));
+  // Configured, but nothing delivered: Clean runs, waiting, then fails.
+  REQUIRE(home.cli({"meta", "vacuum.mi-position", "referee.position"}) == 0);
+  auto goal = home.observer->set(vacuum, "ExecGoal", "Clean(living-room)");
+  auto status = finalStatus(home, vacuum, goal.seqno);
+  REQUIRE(status);
+  CHECK(status->cause == "no position: mi-position delivered none in time (--position-wait)");
+  // A position that arrives within the wait starts the cleaning.
+  goal = home.observer->set(vacuum, "ExecGoal", "Clean(living-room)");
+  peis::WriteOptions at;
+  at.ts_user = peis::systemNow();
+  home.observer->set("position", "1.0 1.6", at);
+  CHECK(waitFor([&] { return vac.err().find("vacuum: cleaning living-room") != std::string::npos; },
+                30s));
+  const auto running = home.observer->get(vacuum, "ExecStatus");
+  REQUIRE(running);
+  CHECK(running->data.rfind("running " + std::to_string(goal.seqno), 0) == 0);
+}
+
 TEST_CASE("a tiny plant reads the world's light through its sensor file", "[integration]") {
   Home home("sensors");
   peis::test::TempDir dir("sensors");
