@@ -43,6 +43,8 @@ Options of run:
                     temporary directory, removed after a successful run)
   --keep            keep the work directory
   --ecology NAME    the ecology (default scenario-NAME-PID)
+  --until S         end at scenario time S at the latest: a condition that has
+                    not held by then fails (a shorter run than the deadlines)
   --help            this text
 
 Exit status of run: 0 every success condition held; 1 one did not hold by its
@@ -117,6 +119,13 @@ int main(int argc, char** argv) {
       options.workDir = value();
     } else if (a == "--ecology" && hasValue) {
       options.ecology = value();
+    } else if (a == "--until" && hasValue) {
+      const std::string& v = value();
+      char* end = nullptr;
+      const double until = std::strtod(v.c_str(), &end);
+      if (v.empty() || *end != '\0' || !(until >= 0 && until <= 1e7))
+        return usage("--until takes scenario seconds, not '" + v + "'");
+      options.until = until;
     } else if (a == "--keep") {
       options.keepWorkDir = true;
     } else if (a.rfind("--", 0) == 0) {

@@ -296,6 +296,13 @@ class Runner {
         failed_ = c;
         return kConditionFailed;
       }
+      if (options_.until && now > *options_.until) {
+        for (const auto& s : tracker_.states()) {
+          if (!s.held && !failed_) failed_ = s.condition;
+        }
+        stoppedEarly_ = true;
+        return kConditionFailed;
+      }
     }
   }
 
@@ -638,8 +645,10 @@ class Runner {
           if (s.condition == failed_) detail = s.detail;
         }
       }
-      say("scenario", "FAILED: condition '" + failed_->name + "' did not hold by " +
-                          seconds(tracker_.deadline(*failed_)) + " s (last seen: " + detail + ")");
+      const double by = stoppedEarly_ ? *options_.until : tracker_.deadline(*failed_);
+      say("scenario", "FAILED: condition '" + failed_->name + "' did not hold by " + seconds(by) +
+                          " s" + (stoppedEarly_ ? " (--until)" : "") + " (last seen: " + detail +
+                          ")");
     }
     if (kernel_ && status != kInterrupted && status != 143 && status != kBadScenario) picture();
     stopAll();
@@ -766,6 +775,7 @@ class Runner {
   bool ownDir_ = false, keep_ = false;
   std::atomic<bool> stopping_{false};
   const Condition* failed_ = nullptr;
+  bool stoppedEarly_ = false;  // --until came first
   // What a scenario owner name needs watched, and which are resolved (main thread).
   std::map<std::string, std::set<std::string>> watched_;
   std::set<std::string> resolved_;

@@ -37,6 +37,7 @@ struct RunOptions {
   std::string workDir;                // empty: a fresh temporary directory
   bool keepWorkDir = false;           // else removed after a successful run
   std::string ecology;                // empty: scenario-<name>-<pid>
+  std::optional<double> until;        // --until: end at this scenario time at the latest
 };
 
 // Runs `scenario` (already checked) and returns a RunStatus.
