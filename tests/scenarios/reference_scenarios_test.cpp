@@ -127,8 +127,8 @@ TEST_CASE("reference scenarios: wake-up passes once its configuration is deploye
       },
       60s));
   const auto id = [&](const char* name) { return *hand.waitForPeer(name, 10s); };
-  hand.setMeta(id("tracker"), "mi-camera1", id("camera-living-1"), "image");
-  hand.setMeta(id("tracker"), "mi-camera2", id("camera-living-2"), "image");
+  hand.setMeta(id("tracker"), "mi-camera1", id("camera-living-2"), "image");
+  hand.setMeta(id("tracker"), "mi-camera2", id("camera-bedroom"), "image");
   hand.setMeta(id("pippi"), "mi-position", id("tracker"), "position.Pippi");
   const auto status = runner.wait(300s);
   INFO(runner.describe());
