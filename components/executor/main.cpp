@@ -293,8 +293,10 @@ int main(int argc, char** argv) {
   }
   peis::Component component(kernel, "executor",
                             peis::Descriptor::fromYaml(kExecutorDescriptor, "executor.yaml"));
-  Shell shell{kernel,  settings, peis::executor::PlanRunner(settings.actions, settings.replans),
-              nullptr, {},       -1, std::nullopt, std::nullopt, {}};
+  Shell shell{
+      kernel,       settings,     peis::executor::PlanRunner(settings.actions, settings.replans),
+      nullptr,      {},           -1,
+      std::nullopt, std::nullopt, {}};
   try {
     if (!settings.domainPath.empty())
       shell.domain = peis::meta::task::Domain::fromFile(settings.domainPath);
@@ -314,20 +316,21 @@ int main(int argc, char** argv) {
         std::make_unique<peis::executor::StaticConfigurator>(kernel, settings.links);
   // A plan written to `plan` (locally or remotely) starts a run; a malformed
   // one is refused at the gate.
-  kernel.setWriteGate([tasks](const peis::Tuple& t, peis::PeisId,
-                               const peis::WriteDecision& decide) {
-    if (t.key != "plan" && t.key != "task") return false;
-    try {
-      if (t.key == "plan") peis::executor::parsePlan(t.data);
-      if (t.key == "task" && !tasks)
-        throw std::invalid_argument("this executor plans no tasks (it has no --domain and --problem)");
-      if (t.key == "task") peis::executor::parseTask(t.data);
-      return false;
-    } catch (const std::invalid_argument& e) {
-      decide(peis::Error(peis::ErrorCode::Refused, e.what()));
-      return true;
-    }
-  });
+  kernel.setWriteGate(
+      [tasks](const peis::Tuple& t, peis::PeisId, const peis::WriteDecision& decide) {
+        if (t.key != "plan" && t.key != "task") return false;
+        try {
+          if (t.key == "plan") peis::executor::parsePlan(t.data);
+          if (t.key == "task" && !tasks)
+            throw std::invalid_argument(
+                "this executor plans no tasks (it has no --domain and --problem)");
+          if (t.key == "task") peis::executor::parseTask(t.data);
+          return false;
+        } catch (const std::invalid_argument& e) {
+          decide(peis::Error(peis::ErrorCode::Refused, e.what()));
+          return true;
+        }
+      });
   kernel.onChange(peis::Pattern::exact(kernel.id(), "plan"),
                   [&shell](const peis::Tuple& t) { shell.startPlan(t.data); });
   if (tasks)

@@ -57,7 +57,8 @@ std::optional<std::string> selectPart(const Selector& selector, const std::strin
       if (w.size() < prefix.size() || !std::equal(prefix.begin(), prefix.end(), w.begin()))
         continue;
       std::string rest;
-      for (std::size_t i = prefix.size(); i < w.size(); ++i) rest += (rest.empty() ? "" : " ") + w[i];
+      for (std::size_t i = prefix.size(); i < w.size(); ++i)
+        rest += (rest.empty() ? "" : " ") + w[i];
       text = rest;
       break;
     }
@@ -106,8 +107,7 @@ Verdict evaluate(const Test& test, const std::optional<std::string>& selected,
       std::optional<std::pair<double, double>> target;
       if (test.x && test.y) target = std::pair{*test.x, *test.y};
       if (!test.nearOwner.empty()) target = nearTarget;
-      if (!target)
-        return {false, "no position of " + test.nearOwner + "." + test.nearKey + " yet"};
+      if (!target) return {false, "no position of " + test.nearOwner + "." + test.nearKey + " yet"};
       const auto here = firstTwoNumbers(s);
       if (!here) return {false, "'" + shorten(s) + "' is not a position"};
       const double d = std::hypot(here->first - target->first, here->second - target->second);

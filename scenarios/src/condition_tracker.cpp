@@ -28,8 +28,7 @@ std::vector<ConditionTracker::Held> ConditionTracker::test(std::size_t i, double
   const Condition& c = *s.condition;
   if (c.test.kind == TestKind::Changes && !newValue) return {};
   const auto value = values_.find({c.owner, c.key});
-  const std::optional<std::string> data =
-      value == values_.end() ? std::nullopt : value->second;
+  const std::optional<std::string> data = value == values_.end() ? std::nullopt : value->second;
   std::optional<std::pair<double, double>> target;
   if (c.test.kind == TestKind::Near && !c.test.nearOwner.empty()) {
     const auto t = values_.find({c.test.nearOwner, c.test.nearKey});

@@ -129,7 +129,8 @@ int main(int argc, char** argv) {
     } else if (a == "--keep") {
       options.keepWorkDir = true;
     } else if (a.rfind("--", 0) == 0) {
-      return usage(hasValue || a == "--keep" ? "unknown option " + a : a + " needs a value or is unknown");
+      return usage(hasValue || a == "--keep" ? "unknown option " + a
+                                             : a + " needs a value or is unknown");
     } else if (file.empty()) {
       file = a;
     } else {
@@ -163,8 +164,9 @@ int main(int argc, char** argv) {
       return std::to_string(n) + " " + what + (n == 1 ? "" : "s");
     };
     std::cout << file << ": valid (" << scenario.peis.size() + (scenario.world ? 1 : 0) << " PEIS, "
-              << count(scenario.goals.size(), "goal") << ", " << count(scenario.faults.size(), "fault")
-              << ", " << count(scenario.success.size(), "success condition") << ")\n";
+              << count(scenario.goals.size(), "goal") << ", "
+              << count(scenario.faults.size(), "fault") << ", "
+              << count(scenario.success.size(), "success condition") << ")\n";
     return 0;
   }
   if (!traceGiven) options.tracePath = scenario.name + ".trace.sqlite";

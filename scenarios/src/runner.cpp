@@ -163,13 +163,13 @@ class Runner {
       trace_->info("file", scenario_.path);
       trace_->info("ecology", context_.ecology);
       trace_->info("speed", seconds(speed_));
-      trace_->info("started_us", std::to_string(std::chrono::duration_cast<std::chrono::microseconds>(
-                                                    std::chrono::system_clock::now().time_since_epoch())
-                                                    .count()));
-      timeline_.setSink([this](std::optional<double> t, const std::string& peis,
-                               const std::string& words, const std::string& tuple) {
-        trace_->timeline(t, peis, words, tuple);
-      });
+      trace_->info("started_us",
+                   std::to_string(std::chrono::duration_cast<std::chrono::microseconds>(
+                                      std::chrono::system_clock::now().time_since_epoch())
+                                      .count()));
+      timeline_.setSink(
+          [this](std::optional<double> t, const std::string& peis, const std::string& words,
+                 const std::string& tuple) { trace_->timeline(t, peis, words, tuple); });
     }
     Options options;
     options.ecology = context_.ecology;
@@ -203,8 +203,8 @@ class Runner {
       if (launch.role == LaunchRole::Gateway) what += " (the gateway of its UART)";
       say(launch.label, what + ", pid " + std::to_string(children_.back()->pid()));
     }
-    const auto until = Steady::now() + std::chrono::milliseconds(
-                                           static_cast<long>(scenario_.startTimeout * 1000));
+    const auto until =
+        Steady::now() + std::chrono::milliseconds(static_cast<long>(scenario_.startTimeout * 1000));
     while (true) {
       if (const int s = takeSignal(20)) return interrupted(s);
       observe();
@@ -313,8 +313,7 @@ class Runner {
       const auto id = idOf(g.owner);
       if (!id) continue;  // not joined yet: written when it is
       goalsDone_[i] = true;
-      const std::string value =
-          substitute(g.value, scenario_, context_, [](const std::string&) {});
+      const std::string value = substitute(g.value, scenario_, context_, [](const std::string&) {});
       write(g.owner, g.key, value, "goal: " + g.owner + "." + g.key + " = " + value);
     }
   }
@@ -328,18 +327,16 @@ class Runner {
       return;
     }
     say("scenario", words);
-    kernel_->setAsync(*id, key, value, {},
-                      [this, owner, key](const std::optional<Error>& error, std::uint64_t) {
-                        if (error)
-                          say(owner, "refused or did not take " + owner + "." + key + ": " +
-                                         error->what());
-                      });
+    kernel_->setAsync(
+        *id, key, value, {}, [this, owner, key](const std::optional<Error>& error, std::uint64_t) {
+          if (error)
+            say(owner, "refused or did not take " + owner + "." + key + ": " + error->what());
+        });
   }
 
   std::optional<std::size_t> launchOf(const std::string& peis) const {
     for (std::size_t i = 0; i < plan_.launches.size(); ++i) {
-      if (plan_.launches[i].peis == peis && plan_.launches[i].role != LaunchRole::Gateway)
-        return i;
+      if (plan_.launches[i].peis == peis && plan_.launches[i].role != LaunchRole::Gateway) return i;
     }
     return std::nullopt;
   }
@@ -484,7 +481,8 @@ class Runner {
     long long pid = 0;
     for (std::size_t i = 0; i < plan_.launches.size(); ++i) {
       const auto& l = plan_.launches[i];
-      const bool byName = std::find(l.joinNames.begin(), l.joinNames.end(), p.name) != l.joinNames.end();
+      const bool byName =
+          std::find(l.joinNames.begin(), l.joinNames.end(), p.name) != l.joinNames.end();
       const bool byId = l.joinId && static_cast<PeisId>(*l.joinId) == p.id;
       if (!byName && !byId) continue;
       program = l.program;
@@ -674,9 +672,10 @@ class Runner {
                                                         : "interrupted";
       trace_->info("result", result);
       if (failed_) trace_->info("failed_condition", failed_->name);
-      trace_->info("ended_us", std::to_string(std::chrono::duration_cast<std::chrono::microseconds>(
-                                                  std::chrono::system_clock::now().time_since_epoch())
-                                                  .count()));
+      trace_->info("ended_us",
+                   std::to_string(std::chrono::duration_cast<std::chrono::microseconds>(
+                                      std::chrono::system_clock::now().time_since_epoch())
+                                      .count()));
       timeline_.setSink({});
       trace_->close();
       std::printf("trace: %s (%llu tuple changes)\n", options_.tracePath.c_str(),
@@ -752,8 +751,8 @@ class Runner {
     while (anyRunning()) std::this_thread::sleep_for(5ms);
     std::string pids;
     for (const auto& c : children_) pids += (pids.empty() ? "" : " ") + std::to_string(c->pid());
-    say("scenario", "stopped the " + std::to_string(children_.size()) + " processes it started (pids " +
-                        pids + ")" +
+    say("scenario", "stopped the " + std::to_string(children_.size()) +
+                        " processes it started (pids " + pids + ")" +
                         (killed ? ", " + std::to_string(killed) + " of them with SIGKILL" : ""));
   }
 

@@ -21,23 +21,23 @@ class Timeline;
 
 // Exit statuses of `peis-scenario run`.
 enum RunStatus : int {
-  kSucceeded = 0,      // every success condition held
+  kSucceeded = 0,        // every success condition held
   kConditionFailed = 1,  // one missed its deadline (named)
-  kBadScenario = 2,    // the file or the options are wrong (nothing started)
-  kStartFailed = 3,    // a PEIS did not start or join
-  kInterrupted = 130,  // SIGINT (143: SIGTERM)
+  kBadScenario = 2,      // the file or the options are wrong (nothing started)
+  kStartFailed = 3,      // a PEIS did not start or join
+  kInterrupted = 130,    // SIGINT (143: SIGTERM)
 };
 
 struct RunOptions {
   std::optional<double> speed;
-  std::vector<Fault> injected;        // --inject
-  std::vector<std::string> without;   // --without: PEIS left out
-  std::string tracePath;              // empty: no trace
-  std::string picturePath;            // empty: no picture
-  std::string workDir;                // empty: a fresh temporary directory
-  bool keepWorkDir = false;           // else removed after a successful run
-  std::string ecology;                // empty: scenario-<name>-<pid>
-  std::optional<double> until;        // --until: end at this scenario time at the latest
+  std::vector<Fault> injected;       // --inject
+  std::vector<std::string> without;  // --without: PEIS left out
+  std::string tracePath;             // empty: no trace
+  std::string picturePath;           // empty: no picture
+  std::string workDir;               // empty: a fresh temporary directory
+  bool keepWorkDir = false;          // else removed after a successful run
+  std::string ecology;               // empty: scenario-<name>-<pid>
+  std::optional<double> until;       // --until: end at this scenario time at the latest
 };
 
 // Runs `scenario` (already checked) and returns a RunStatus.

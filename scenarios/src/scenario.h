@@ -25,14 +25,14 @@ enum class TinyTarget { Host, Avr, Auto };
 
 struct PeisSpec {
   Origin origin;
-  std::string name;               // the PEIS name (--peis-name), unique in the scenario
-  std::optional<long long> id;    // --peis-id (full PEIS) or --id (tiny node)
-  std::string program;            // a full PEIS program (`peis-navigation`), or empty for a tiny node
-  std::string tiny;               // a tiny device program (`plant` -> tiny-plant, plant.elf)
+  std::string name;             // the PEIS name (--peis-name), unique in the scenario
+  std::optional<long long> id;  // --peis-id (full PEIS) or --id (tiny node)
+  std::string program;          // a full PEIS program (`peis-navigation`), or empty for a tiny node
+  std::string tiny;             // a tiny device program (`plant` -> tiny-plant, plant.elf)
   TinyTarget on = TinyTarget::Host;
-  std::vector<std::string> options;           // extra arguments, before substitution
-  std::map<std::string, std::string> env;     // extra environment, before substitution
-  std::vector<std::string> hosts;             // other PEIS the process hosts (a world's drivers)
+  std::vector<std::string> options;        // extra arguments, before substitution
+  std::map<std::string, std::string> env;  // extra environment, before substitution
+  std::vector<std::string> hosts;          // other PEIS the process hosts (a world's drivers)
   bool isTiny() const { return !tiny.empty(); }
 };
 
@@ -41,10 +41,10 @@ struct PeisSpec {
 struct WorldSpec {
   Origin origin;
   std::string name = "world";
-  std::string file;                        // empty: peis-sim-world's default (the PEIS-Home)
-  std::optional<double> daylight;          // physics.daylight written once every PEIS joined
+  std::string file;                // empty: peis-sim-world's default (the PEIS-Home)
+  std::optional<double> daylight;  // physics.daylight written once every PEIS joined
   std::vector<std::string> options;
-  std::vector<std::string> hosts;          // the driver PEIS it hosts (`Pippi-base`)
+  std::vector<std::string> hosts;  // the driver PEIS it hosts (`Pippi-base`)
 };
 
 // The simulated 802.15.4 medium the tiny nodes and bridges share.
@@ -69,15 +69,15 @@ struct Fault {
   Origin origin;
   double at = 0;
   FaultKind kind = FaultKind::Kill;
-  std::string peis;                 // the scenario PEIS name it hits
-  std::optional<double> duration;   // `for`: Stop, Cut, Freeze end after it (Kill: never)
-  std::string describe() const;     // "stop camera-living-1 at 5 for 8"
+  std::string peis;                // the scenario PEIS name it hits
+  std::optional<double> duration;  // `for`: Stop, Cut, Freeze end after it (Kill: never)
+  std::string describe() const;    // "stop camera-living-1 at 5 for 8"
 };
 
 // Which part of a tuple's value a condition or narration looks at.
 struct Selector {
-  std::string line;           // the line starting with these words (`robot Pippi`), the rest of it
-  std::optional<int> field;   // the N-th whitespace-separated word (1-based)
+  std::string line;          // the line starting with these words (`robot Pippi`), the rest of it
+  std::optional<int> field;  // the N-th whitespace-separated word (1-based)
   bool empty() const { return line.empty() && !field; }
 };
 
@@ -86,10 +86,10 @@ enum class TestKind { Equals, Matches, Above, Below, Near, Present, Changes };
 
 struct Test {
   TestKind kind = TestKind::Present;
-  std::string text;                 // Equals: the value; Matches: the regular expression
-  double number = 0;                // Above, Below: the bound; Near: the distance
-  std::optional<double> x, y;       // Near: a point
-  std::string nearOwner, nearKey;   // Near: or the first two numbers of a tuple (`world.place.bed`)
+  std::string text;                // Equals: the value; Matches: the regular expression
+  double number = 0;               // Above, Below: the bound; Near: the distance
+  std::optional<double> x, y;      // Near: a point
+  std::string nearOwner, nearKey;  // Near: or the first two numbers of a tuple (`world.place.bed`)
 };
 
 struct Condition {
@@ -114,8 +114,8 @@ struct Narration {
 };
 
 struct TraceSpec {
-  std::vector<std::string> skip;   // OWNER.KEY globs never subscribed (camera images)
-  std::size_t maxData = 1 << 20;   // larger values are recorded by size only
+  std::vector<std::string> skip;  // OWNER.KEY globs never subscribed (camera images)
+  std::size_t maxData = 1 << 20;  // larger values are recorded by size only
 };
 
 struct Scenario {

@@ -39,8 +39,8 @@ class Checker {
     if (names_.count(owner) || (isNumber(owner) && ids_.count(owner))) return;
     std::string list;
     for (const auto& n : names_) list += (list.empty() ? "" : ", ") + n;
-    fail(o, what + " names PEIS '" + owner + "', which the scenario does not have (it has: " +
-                list + ")");
+    fail(o, what + " names PEIS '" + owner +
+                "', which the scenario does not have (it has: " + list + ")");
   }
 
   void names() {
@@ -60,8 +60,8 @@ class Checker {
       for (const auto& h : p.hosts) add(h, p.origin);
       if (p.id) {
         if (const auto it = ids.find(*p.id); it != ids.end())
-          fail(p.origin, "id " + std::to_string(*p.id) + " is used twice (also by '" + it->second +
-                             "')");
+          fail(p.origin,
+               "id " + std::to_string(*p.id) + " is used twice (also by '" + it->second + "')");
         ids.emplace(*p.id, p.name);
       }
     }
@@ -105,9 +105,11 @@ class Checker {
         if (std::find(freezable.begin(), freezable.end(), program) == freezable.end()) {
           std::string list;
           for (const auto& n : freezable) list += (list.empty() ? "" : ", ") + n;
-          fail(f.origin, "fault '" + f.describe() + "': a freeze holds a simulated sensor's "
-                                                    "readings, and '" + f.peis + "' runs " +
-                             program + " (sensors that take it: " + list + ")");
+          fail(f.origin, "fault '" + f.describe() +
+                             "': a freeze holds a simulated sensor's "
+                             "readings, and '" +
+                             f.peis + "' runs " + program + " (sensors that take it: " + list +
+                             ")");
         }
       }
     }
@@ -135,8 +137,7 @@ class Checker {
   void conditions() {
     std::map<std::string, const Condition*> byName;
     for (const auto& c : s_.success) {
-      if (byName.count(c.name))
-        fail(c.origin, "two success conditions are named '" + c.name + "'");
+      if (byName.count(c.name)) fail(c.origin, "two success conditions are named '" + c.name + "'");
       byName[c.name] = &c;
     }
     for (const auto& c : s_.success) {
@@ -152,7 +153,7 @@ class Checker {
       }
       // Follow the chain: it must end.
       std::set<std::string> seen{c.name};
-      for (const Condition* at = byName[c.after]; at; ) {
+      for (const Condition* at = byName[c.after]; at;) {
         if (!seen.insert(at->name).second) {
           fail(c.origin, what + ": its after: chain goes round through '" + at->name + "'");
           break;

@@ -100,7 +100,7 @@ class Reader {
   std::string file_;
 };
 
-const std::set<std::string> kTestKeys{"equals", "matches", "above", "below",
+const std::set<std::string> kTestKeys{"equals", "matches", "above",  "below",
                                       "near",   "present", "changes"};
 
 Selector readSelector(const Reader& r, const YAML::Node& map) {
@@ -243,8 +243,10 @@ Fault readFault(const Reader& r, const YAML::Node& n) {
   if (!n["at"]) r.fail(n, "a fault needs at: SECONDS");
   f.at = r.numberIn(n["at"], 0, 1e7, "at");
   int kinds = 0;
-  for (const auto& [key, kind] : {std::pair{"kill", FaultKind::Kill}, {"stop", FaultKind::Stop},
-                                  {"cut", FaultKind::Cut}, {"freeze", FaultKind::Freeze}}) {
+  for (const auto& [key, kind] : {std::pair{"kill", FaultKind::Kill},
+                                  {"stop", FaultKind::Stop},
+                                  {"cut", FaultKind::Cut},
+                                  {"freeze", FaultKind::Freeze}}) {
     if (!n[key]) continue;
     ++kinds;
     f.kind = kind;
@@ -252,7 +254,8 @@ Fault readFault(const Reader& r, const YAML::Node& n) {
   }
   if (kinds != 1) r.fail(n, "a fault needs exactly one of kill:, stop:, cut:, freeze: (a PEIS)");
   if (n["for"]) {
-    if (f.kind == FaultKind::Kill) r.fail(n["for"], "kill takes no for: (a killed PEIS stays dead)");
+    if (f.kind == FaultKind::Kill)
+      r.fail(n["for"], "kill takes no for: (a killed PEIS stays dead)");
     f.duration = r.numberIn(n["for"], 0.001, 1e7, "for");
   } else if (f.kind == FaultKind::Stop) {
     r.fail(n, "stop needs for: SECONDS (how long the PEIS stays stopped)");
@@ -291,7 +294,8 @@ Condition readCondition(const Reader& r, const YAML::Node& n) {
   c.select = readSelector(r, n);
   const auto test = readTest(r, n, "condition '" + c.name + "'");
   if (!test)
-    r.fail(n, "condition '" + c.name + "' needs a test: equals, matches, above, below, near or present");
+    r.fail(n, "condition '" + c.name +
+                  "' needs a test: equals, matches, above, below, near or present");
   c.test = *test;
   if (n["by"]) c.by = r.numberIn(n["by"], 0, 1e7, "by");
   if (n["from"]) c.from = r.numberIn(n["from"], 0, 1e7, "from");

@@ -81,11 +81,12 @@ TraceWriter::TraceWriter(const std::string& path, std::size_t maxData) : maxData
     sqlite3_close(db_);
     throw std::runtime_error("cannot create the trace " + path + ": " + why);
   }
-  sqlite3_prepare_v2(db_,
-                     "INSERT INTO tuple_events (recv_us, sim_s, event, owner, key, data, data_size, "
-                     "mimetype, encoding, creator, seqno, ts_write, ts_user, ts_expire) VALUES "
-                     "(?,?,?,?,?,?,?,?,?,?,?,?,?,?)",
-                     -1, &insertTuple_, nullptr);
+  sqlite3_prepare_v2(
+      db_,
+      "INSERT INTO tuple_events (recv_us, sim_s, event, owner, key, data, data_size, "
+      "mimetype, encoding, creator, seqno, ts_write, ts_user, ts_expire) VALUES "
+      "(?,?,?,?,?,?,?,?,?,?,?,?,?,?)",
+      -1, &insertTuple_, nullptr);
   sqlite3_prepare_v2(db_,
                      "INSERT INTO timeline (recv_us, sim_s, peis, words, tuple) VALUES (?,?,?,?,?)",
                      -1, &insertLine_, nullptr);
@@ -94,9 +95,7 @@ TraceWriter::TraceWriter(const std::string& path, std::size_t maxData) : maxData
 
 TraceWriter::~TraceWriter() { close(); }
 
-void TraceWriter::info(const std::string& key, const std::string& value) {
-  push(Info{key, value});
-}
+void TraceWriter::info(const std::string& key, const std::string& value) { push(Info{key, value}); }
 void TraceWriter::peis(long long id, const std::string& name, const std::string& program,
                        long long pid) {
   push(Peis{id, name, program, pid});

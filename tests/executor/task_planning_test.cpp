@@ -6,9 +6,9 @@
 #include <catch2/catch.hpp>
 
 using namespace peis::executor;
+using Catch::Matchers::Contains;
 using peis::meta::task::Domain;
 using peis::meta::task::Problem;
-using Catch::Matchers::Contains;
 
 namespace {
 

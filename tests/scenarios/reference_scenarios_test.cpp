@@ -13,9 +13,9 @@
 #include "support/process.h"
 #include "support/wait_for.h"
 
+using Catch::Matchers::Contains;
 using peis::test::Process;
 using peis::test::waitFor;
-using Catch::Matchers::Contains;
 using namespace std::chrono_literals;
 
 namespace {
@@ -72,11 +72,14 @@ TEST_CASE("reference scenarios: photo-sofa runs up to the photo that needs the m
   CHECK(held(r.out, "the blind closes"));
   // Astrid's task is planned and its first need posted for the configurator.
   CHECK_THAT(r.out, Contains("Astrid's plan: GoTo(astrid, sofa); TakePhoto(astrid, sofa)"));
-  CHECK_THAT(r.out, Contains("Astrid asks the configurator for: position(astrid)@astrid.mi-position"));
-  CHECK_THAT(r.out, Contains("FAILED: condition 'a photo is too dark' did not hold by 40.0 s (--until)"));
+  CHECK_THAT(r.out,
+             Contains("Astrid asks the configurator for: position(astrid)@astrid.mi-position"));
+  CHECK_THAT(r.out,
+             Contains("FAILED: condition 'a photo is too dark' did not hold by 40.0 s (--until)"));
 }
 
-TEST_CASE("reference scenarios: wake-up runs up to GoTo's configuration", "[integration][scenario]") {
+TEST_CASE("reference scenarios: wake-up runs up to GoTo's configuration",
+          "[integration][scenario]") {
   const Run r = run({"run", scenario("wake-up"), "--without", "configurator", "--speed", "4",
                      "--until", "20", "--trace", "", "--picture", ""},
                     240s);
@@ -90,18 +93,20 @@ TEST_CASE("reference scenarios: wake-up runs up to GoTo's configuration", "[inte
 
 TEST_CASE("reference scenarios: vacuum-parcel runs up to the cleaner's configuration",
           "[integration][scenario]") {
-  const Run r = run({"run", scenario("vacuum-parcel"), "--without", "configurator", "--speed",
-                     "4", "--until", "20", "--trace", "", "--picture", ""},
+  const Run r = run({"run", scenario("vacuum-parcel"), "--without", "configurator", "--speed", "4",
+                     "--until", "20", "--trace", "", "--picture", ""},
                     240s);
   INFO(r.out << r.err);
   CHECK(r.status == 1);
   CHECK_THAT(r.out, Contains("the home's plan: Clean(vacuum, living-room)"));
-  CHECK_THAT(r.out, Contains("the home asks the configurator for: position(vacuum)@vacuum.mi-position "
-                             "weight(parcel)@vacuum.mi-weight"));
+  CHECK_THAT(r.out,
+             Contains("the home asks the configurator for: position(vacuum)@vacuum.mi-position "
+                      "weight(parcel)@vacuum.mi-weight"));
   // The parcel's tiny node tells its weight through the bridge.
   CHECK_THAT(r.out, Contains("the parcel's node: it weighs 2500 g"));
-  CHECK_THAT(r.out, Contains("FAILED: condition 'the cleaner's position comes from the tracker' did "
-                             "not hold by 20.0 s (--until)"));
+  CHECK_THAT(r.out,
+             Contains("FAILED: condition 'the cleaner's position comes from the tracker' did "
+                      "not hold by 20.0 s (--until)"));
 }
 
 // What the configurator must deploy for wake-up, done here by the test: the

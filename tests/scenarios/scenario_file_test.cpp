@@ -33,7 +33,9 @@ struct FakePrograms {
       ::chmod(path.c_str(), 0755);
     }
   }
-  ProgramFinder finder() const { return ProgramFinder("/nonexistent/peis-scenario", dir.path.string(), ""); }
+  ProgramFinder finder() const {
+    return ProgramFinder("/nonexistent/peis-scenario", dir.path.string(), "");
+  }
 };
 
 const char* kSmall = R"(name: small
@@ -117,9 +119,9 @@ TEST_CASE("scenario: a file is read into the model", "[unit][scenario]") {
 
 TEST_CASE("scenario: broken files are errors naming file:line", "[unit][scenario]") {
   CHECK_THAT(errorOf("name: x\npeis: [\n"), Contains("s.yaml:") && Contains("broken YAML"));
-  CHECK_THAT(errorOf("name: x\nspeeed: 2\n"),
-             Contains("s.yaml:2: unknown key 'speeed' in the scenario (known: ") &&
-                 Contains("speed"));
+  CHECK_THAT(
+      errorOf("name: x\nspeeed: 2\n"),
+      Contains("s.yaml:2: unknown key 'speeed' in the scenario (known: ") && Contains("speed"));
   CHECK_THAT(errorOf("description: x\n"), Contains("needs a name"));
   CHECK_THAT(errorOf("name: x\nspeed: fast\n"), Contains("s.yaml:2: speed must be a number"));
   CHECK_THAT(errorOf("name: x\nspeed: 1000\n"), Contains("speed must be in 0.1..100"));
@@ -134,7 +136,8 @@ TEST_CASE("scenario: broken files are errors naming file:line", "[unit][scenario
   CHECK_THAT(errorOf("name: x\nfaults:\n  - {at: 1, stop: a}\n"), Contains("stop needs for:"));
   CHECK_THAT(errorOf("name: x\nfaults:\n  - {at: 1, kill: a, stop: b, for: 1}\n"),
              Contains("exactly one of kill:, stop:, cut:, freeze:"));
-  CHECK_THAT(errorOf("name: x\nfaults:\n  - {at: 1, kill: a, for: 3}\n"), Contains("kill takes no for:"));
+  CHECK_THAT(errorOf("name: x\nfaults:\n  - {at: 1, kill: a, for: 3}\n"),
+             Contains("kill takes no for:"));
   CHECK_THAT(errorOf("name: x\nsuccess:\n  - {name: c, tuple: a.b, above: 1, below: 2}\n"),
              Contains("has two tests"));
   CHECK_THAT(errorOf("name: x\nsuccess:\n  - {name: c, tuple: a.b}\n"),
@@ -180,8 +183,8 @@ TEST_CASE("scenario: check finds unknown programs and PEIS and placeholders and 
                !Contains("unknown program") && Contains("hits 'nav', which is left out"));
   }
   SECTION("PEIS the scenario does not have") {
-    const std::string text = std::string(kSmall) +
-                             "  - name: ghost\n    tuple: nobody.status\n    equals: running\n";
+    const std::string text =
+        std::string(kSmall) + "  - name: ghost\n    tuple: nobody.status\n    equals: running\n";
     CHECK_THAT(joined(checkScenario(parseScenario(text, "small.yaml"), finder)),
                Contains("small.yaml:37: condition 'ghost' names PEIS 'nobody', which the "
                         "scenario does not have (it has: Pippi-base, nav, plant, world)"));
@@ -212,7 +215,8 @@ success:
     CHECK_THAT(errors, Contains("bad.yaml:9: fault 'freeze a at 1': a freeze holds a simulated "
                                 "sensor's readings, and 'a' runs peis-navigation"));
     CHECK_THAT(errors, !Contains("bad.yaml:10:") && !Contains("bad.yaml:11:"));
-    CHECK_THAT(errors, Contains("bad.yaml:12: fault 'kill Pippi-base at 1' names PEIS 'Pippi-base'"));
+    CHECK_THAT(errors,
+               Contains("bad.yaml:12: fault 'kill Pippi-base at 1' names PEIS 'Pippi-base'"));
     CHECK_THAT(errors, Contains("bad.yaml:14: condition 'one' has no deadline"));
     CHECK_THAT(errors, Contains("its after: chain goes round"));
     CHECK_THAT(errors, Contains("bad.yaml:16: condition 'three': matches '([' is not a regular "
@@ -242,8 +246,8 @@ TEST_CASE("scenario: the launch plan names every process with its flags and its 
   CHECK(world.role == LaunchRole::World);
   CHECK(world.argv[0] == fake.dir.file("peis-sim-world"));
   CHECK(world.argv == std::vector<std::string>{fake.dir.file("peis-sim-world"), "--speed", "4",
-                                               "--picture", "/run/world-at-exit.png",
-                                               "--peis-name", "world", "--peis-ecology", "eco"});
+                                               "--picture", "/run/world-at-exit.png", "--peis-name",
+                                               "world", "--peis-ecology", "eco"});
   CHECK(world.joinNames == std::vector<std::string>{"world", "Pippi-base"});
   const Launch& nav = plan.launches[1];
   CHECK(nav.argv == std::vector<std::string>{fake.dir.file("peis-navigation"), "--base",
@@ -279,7 +283,8 @@ peis:
 success:
   - {name: closed, tuple: blind.BlindPosition, equals: "0", by: 5}
 )";
-  const LaunchPlan plan = planLaunches(parseScenario(text, "s/mcu.yaml"), {"/run", "eco", 31000, 1}, finder);
+  const LaunchPlan plan =
+      planLaunches(parseScenario(text, "s/mcu.yaml"), {"/run", "eco", 31000, 1}, finder);
   REQUIRE(plan.errors.empty());
   REQUIRE(plan.launches.size() == 2);
   CHECK(plan.launches[0].role == LaunchRole::Emulator);
@@ -293,8 +298,8 @@ success:
   CHECK(plan.launches[1].argv[6] == "s/keys.yaml");
   // Without the emulator's tool, auto falls back to the host radio; avr is an error.
   FakePrograms hostOnly{"peis-tinybridge", "tiny-blind"};
-  const auto host = planLaunches(parseScenario(text, "mcu.yaml"), {"/run", "eco", 31000, 1},
-                                 hostOnly.finder());
+  const auto host =
+      planLaunches(parseScenario(text, "mcu.yaml"), {"/run", "eco", 31000, 1}, hostOnly.finder());
   REQUIRE(host.launches.size() == 1);
   CHECK(host.launches[0].role == LaunchRole::TinyHost);
   std::string avrText = text;
@@ -352,7 +357,8 @@ TEST_CASE("scenario: the condition tracker arms after-conditions and finds misse
   CHECK(tracker.start(0).empty());
   // `then back` waits for `at the bed`, though its own test already holds.
   CHECK_FALSE(tracker.states()[1].held);
-  const auto held = tracker.value("world", "physics.scene", std::string("robot Pippi 6.6 4.95 0"), 12);
+  const auto held =
+      tracker.value("world", "physics.scene", std::string("robot Pippi 6.6 4.95 0"), 12);
   REQUIRE(held.size() == 2);
   CHECK(held[0].name == "at the bed");
   CHECK(held[1].name == "then back");
@@ -399,7 +405,8 @@ TEST_CASE("scenario: timeline lines and values for people", "[unit][scenario]") 
   t.mimetype = "image/png";
   t.data = std::string(1234, '\0');
   CHECK(formatValue(t) == "<1234 bytes image/png>");
-  const std::string line = formatLine(12.44, "plant", "asks the blind to close", "plant.TiltValue = 0");
+  const std::string line =
+      formatLine(12.44, "plant", "asks the blind to close", "plant.TiltValue = 0");
   CHECK_THAT(line, Contains("    12.4 s  plant            asks the blind to close"));
   CHECK(line.substr(line.size() - 19) == "plant.TiltValue = 0");
   CHECK(formatLine(std::nullopt, "world", "started", "").rfind("            world", 0) == 0);
@@ -443,8 +450,8 @@ TEST_CASE("scenario: the trace holds every tuple change and the timeline and the
   // Over max_data (8 bytes) the value is left out, its size kept.
   CHECK(one("SELECT coalesce(data, 'NULL') || ' ' || data_size FROM tuple_events WHERE seq = 1") ==
         "NULL 19");
-  CHECK(one("SELECT data || ' ' || seqno || ' ' || coalesce(sim_s, 'none') FROM tuple_events WHERE seq = 2") ==
-        "ok 7 none");
+  CHECK(one("SELECT data || ' ' || seqno || ' ' || coalesce(sim_s, 'none') FROM tuple_events WHERE "
+            "seq = 2") == "ok 7 none");
   CHECK(one("SELECT event FROM tuple_events WHERE seq = 3") == "delete");
   CHECK(one("SELECT name || ' ' || program || ' ' || pid FROM peis") == "nav peis-navigation 4321");
   CHECK(one("SELECT words FROM timeline") == "drives to the bed");
@@ -477,6 +484,7 @@ success:
   REQUIRE(fresh.size() == 1);
   CHECK(fresh[0].at == 65);
   CHECK(tracker.allHeld());
-  CHECK_THAT(errorOf("name: x\nsuccess:\n  - {name: c, tuple: a.b, changes: true, from: 9, by: 3}\n"),
-             Contains("ends (by) before it starts (from)"));
+  CHECK_THAT(
+      errorOf("name: x\nsuccess:\n  - {name: c, tuple: a.b, changes: true, from: 9, by: 3}\n"),
+      Contains("ends (by) before it starts (from)"));
 }

@@ -16,10 +16,10 @@
 #include "support/temp_dir.h"
 #include "support/wait_for.h"
 
+using Catch::Matchers::Contains;
 using peis::test::Process;
 using peis::test::TempDir;
 using peis::test::waitFor;
-using Catch::Matchers::Contains;
 using namespace std::chrono_literals;
 
 namespace {
@@ -47,8 +47,8 @@ Run runScenario(std::vector<std::string> args, std::chrono::seconds deadline = 1
 std::set<pid_t> startedPids(const std::string& out) {
   static const std::regex started(R"(started .*, pid (\d+))");
   std::set<pid_t> pids;
-  for (auto it = std::sregex_iterator(out.begin(), out.end(), started); it != std::sregex_iterator();
-       ++it)
+  for (auto it = std::sregex_iterator(out.begin(), out.end(), started);
+       it != std::sregex_iterator(); ++it)
     pids.insert(static_cast<pid_t>(std::stol((*it)[1])));
   return pids;
 }
@@ -115,8 +115,9 @@ TEST_CASE("scenario run: two PEIS and a goal and the trace end to end", "[integr
   CHECK_THAT(run.out, Contains("stopped the 2 processes it started"));
   for (const pid_t pid : startedPids(run.out)) CHECK(gone(pid));
   CHECK(query(trace, "SELECT value FROM recording WHERE key = 'result'") == "success");
-  CHECK(query(trace, "SELECT count(*) > 0 FROM tuple_events WHERE key = 'greeting' AND data = "
-                     "CAST('hello' AS BLOB)") == "1");
+  CHECK(query(trace,
+              "SELECT count(*) > 0 FROM tuple_events WHERE key = 'greeting' AND data = "
+              "CAST('hello' AS BLOB)") == "1");
   CHECK(query(trace, "SELECT count(*) FROM tuple_events WHERE key = 'request'") == "1");
   CHECK(query(trace, "SELECT pid > 0 FROM peis WHERE name = 'alpha'") == "1");
   CHECK(query(trace, "SELECT count(*) FROM conditions WHERE held = 1") == "2");
@@ -202,9 +203,10 @@ success:
 TEST_CASE("scenario: bad input is a clear error and nothing is left running", "[fault][scenario]") {
   TempDir dir("scenario-bad");
   SECTION("a program that does not exist") {
-    const auto file = dir.write("p.yaml", "name: p\ndeadline: 5\npeis:\n  - {name: a, program: "
-                                          "peis-nonexistent}\nsuccess:\n  - {name: c, tuple: "
-                                          "a.x, equals: '1'}\n");
+    const auto file = dir.write("p.yaml",
+                                "name: p\ndeadline: 5\npeis:\n  - {name: a, program: "
+                                "peis-nonexistent}\nsuccess:\n  - {name: c, tuple: "
+                                "a.x, equals: '1'}\n");
     const Run run = runScenario({"run", file});
     CHECK(run.status == 2);
     CHECK_THAT(run.err, Contains(file + ":4: unknown program 'peis-nonexistent'"));
@@ -259,8 +261,9 @@ success:
                                  "(last seen: 'hello')"));
     CHECK_THAT(run.out, Contains("NOT HELD  alpha says goodbye"));
     for (const pid_t pid : startedPids(run.out)) CHECK(gone(pid));
-    CHECK(query(dir.file("t.sqlite"), "SELECT value FROM recording WHERE key = 'failed_condition'") ==
-          "alpha says goodbye");
+    CHECK(
+        query(dir.file("t.sqlite"), "SELECT value FROM recording WHERE key = 'failed_condition'") ==
+        "alpha says goodbye");
   }
 }
 
@@ -276,8 +279,8 @@ success:
 )");
   const std::string trace = dir.file("t.sqlite");
   Process runner(scenarioArgs({"run", file, "--trace", trace, "--picture", ""}));
-  REQUIRE(waitFor([&] { return runner.out().find("scenario time starts") != std::string::npos; },
-                  60s));
+  REQUIRE(
+      waitFor([&] { return runner.out().find("scenario time starts") != std::string::npos; }, 60s));
   // Some tuples reach the trace before the interrupt.
   REQUIRE(waitFor([&] { return runner.out().find("beta") != std::string::npos; }, 10s));
   const auto pids = startedPids(runner.out());
@@ -298,5 +301,6 @@ TEST_CASE("scenario: peis scenario runs peis-scenario", "[integration][scenario]
   const std::string scenarioDir = std::filesystem::path(PEIS_SCENARIO_PATH).parent_path();
   Process peis({PEIS_CLI_PATH, "scenario", "check", file}, {{"PEIS_EXEC_PATH", scenarioDir}});
   REQUIRE(peis.wait(30s) == std::optional<int>(0));
-  CHECK_THAT(peis.out(), Contains(file + ": valid (2 PEIS, 1 goal, 0 faults, 2 success conditions)"));
+  CHECK_THAT(peis.out(),
+             Contains(file + ": valid (2 PEIS, 1 goal, 0 faults, 2 success conditions)"));
 }

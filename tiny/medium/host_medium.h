@@ -30,12 +30,12 @@ extern "C" {
 #define HOST_MEDIUM_PATH_MAX 256
 
 typedef struct host_medium_config {
-  unsigned base_port; /* TINY_MEDIUM_PORT, default 47100 */
-  unsigned slots;     /* TINY_MEDIUM_SLOTS, default 8 (max 64) */
-  unsigned loss_pct;  /* TINY_LOSS: percent of frames lost */
-  unsigned dup_pct;   /* TINY_DUP: percent of frames delivered twice */
-  unsigned delay_ms;  /* TINY_DELAY_MS: fixed delay of every frame */
-  unsigned jitter_ms; /* TINY_JITTER_MS: extra random delay 0..jitter */
+  unsigned base_port;                  /* TINY_MEDIUM_PORT, default 47100 */
+  unsigned slots;                      /* TINY_MEDIUM_SLOTS, default 8 (max 64) */
+  unsigned loss_pct;                   /* TINY_LOSS: percent of frames lost */
+  unsigned dup_pct;                    /* TINY_DUP: percent of frames delivered twice */
+  unsigned delay_ms;                   /* TINY_DELAY_MS: fixed delay of every frame */
+  unsigned jitter_ms;                  /* TINY_JITTER_MS: extra random delay 0..jitter */
   char cut_file[HOST_MEDIUM_PATH_MAX]; /* TINY_RADIO_CUT_FILE: "" = never cut */
 } host_medium_config;
 

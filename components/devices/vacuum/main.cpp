@@ -178,25 +178,24 @@ int main(int argc, char** argv) {
     waiting.reset();
   });
   begin = [&](const peis::exec::Action& a, std::uint64_t id) {
-        auto failed = [&](const std::string& cause) {
-          server->publish({peis::exec::ExecState::Failed, id, a.toString(), cause});
-        };
-        if (!component.inputFresh("position"))
-          return failed("no position: mi-position is not configured or stale");
-        const auto roomTuple = robot->mapServerTuple("room." + a.args[0]);
-        const auto room = roomTuple ? peis::devices::parsePolygon(roomTuple->data) : std::nullopt;
-        if (!room) return failed("unknown room '" + a.args[0] + "'");
-        if (!robot->navigator().hasMap()) return failed("no map");
-        const auto& costmap = robot->navigator().costmap();
-        const double lanes = spacing > 0 ? spacing : 2 * costmap.options().robotRadius;
-        run =
-            Run{id, a.toString(), peis::devices::coverageWaypoints(costmap, *room, lanes), 0, 0, 0};
-        server->publish({peis::exec::ExecState::Running, id, a.toString(), ""});
-        robot->log("cleaning " + a.args[0] + ": " + std::to_string(run->waypoints.size()) +
-                   " lane ends");
-        progress();
-        nextLeg();
-      };
+    auto failed = [&](const std::string& cause) {
+      server->publish({peis::exec::ExecState::Failed, id, a.toString(), cause});
+    };
+    if (!component.inputFresh("position"))
+      return failed("no position: mi-position is not configured or stale");
+    const auto roomTuple = robot->mapServerTuple("room." + a.args[0]);
+    const auto room = roomTuple ? peis::devices::parsePolygon(roomTuple->data) : std::nullopt;
+    if (!room) return failed("unknown room '" + a.args[0] + "'");
+    if (!robot->navigator().hasMap()) return failed("no map");
+    const auto& costmap = robot->navigator().costmap();
+    const double lanes = spacing > 0 ? spacing : 2 * costmap.options().robotRadius;
+    run = Run{id, a.toString(), peis::devices::coverageWaypoints(costmap, *room, lanes), 0, 0, 0};
+    server->publish({peis::exec::ExecState::Running, id, a.toString(), ""});
+    robot->log("cleaning " + a.args[0] + ": " + std::to_string(run->waypoints.size()) +
+               " lane ends");
+    progress();
+    nextLeg();
+  };
   component.input("position", std::chrono::seconds(2),
                   [&](const peis::Tuple& t) { robot->onFix(t); });
   component.input("weight", std::chrono::seconds(30), [&](const peis::Tuple&) { applyWeight(); });

@@ -102,7 +102,8 @@ std::vector<Literal> parseTask(std::string_view text) {
       throw std::invalid_argument("task literal '" + trim(raw) + "' is not an atom" +
                                   (problem.empty() ? std::string() : ": " + problem));
     if (!term->isGround())
-      throw std::invalid_argument("task literal '" + part + "' has a variable: a task names objects");
+      throw std::invalid_argument("task literal '" + part +
+                                  "' has a variable: a task names objects");
     l.atom = *term;
     goal.push_back(std::move(l));
   }
@@ -124,7 +125,8 @@ std::vector<Term> stateAfter(const meta::task::Domain& domain, const meta::task:
       throw std::invalid_argument("step " + step.toString() + ": " + step.action + " takes " +
                                   std::to_string(action->parameters.size()) + " arguments");
     Binding b;
-    for (std::size_t i = 0; i < step.args.size(); ++i) b[action->parameters[i].first] = step.args[i];
+    for (std::size_t i = 0; i < step.args.size(); ++i)
+      b[action->parameters[i].first] = step.args[i];
     std::set<Term> known = state;
     known.insert(types.begin(), types.end());
     if (!bindRest(action->preconditions, 0, b, known))
