@@ -112,12 +112,15 @@ TEST_CASE("reference scenarios: vacuum-parcel runs up to the cleaner's configura
 // What the configurator must deploy for wake-up, done here by the test: the
 // tracker's inputs and Pippi's mi-position. Everything else — Emil's plan,
 // the delegation through ExecGoal, navigation on fixes and odometry, the
-// talk, Johanna waking, completion — is the components'.
+// talk, Johanna waking, completion — is the components'. A fault it must
+// survive: the living room's camera stopped for a while (Pippi carries on
+// with the bedroom camera's fixes and odometry).
 TEST_CASE("reference scenarios: wake-up passes once its configuration is deployed (by hand here)",
           "[integration][scenario]") {
   const std::string ecology = "wake-by-hand-" + std::to_string(::getpid());
   Process runner({PEIS_SCENARIO_PATH, "run", scenario("wake-up"), "--without", "configurator",
-                  "--speed", "4", "--ecology", ecology, "--trace", "", "--picture", ""});
+                  "--speed", "4", "--ecology", ecology, "--trace", "", "--picture", "", "--inject",
+                  "stop camera-living-2 at 4 for 6"});
   peis::Options options;
   options.ecology = ecology;
   options.name = "by-hand";
@@ -139,6 +142,8 @@ TEST_CASE("reference scenarios: wake-up passes once its configuration is deploye
   INFO(runner.describe());
   REQUIRE(status == std::optional<int>(0));
   const std::string out = runner.out();
+  CHECK_THAT(out, Contains("FAULT: stopped with SIGSTOP for 6.0 s"));
+  CHECK_THAT(out, Contains("resumed with SIGCONT"));
   for (const char* condition :
        {"GoTo's position comes from the tracker", "Pippi reaches the bed within 15 cm",
         "out of the cameras' view, Pippi carries on with odometry", "Johanna wakes up",
