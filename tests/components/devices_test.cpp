@@ -201,7 +201,9 @@ TEST_CASE("a frozen sensor keeps its last reading until it thaws", "[fault]") {
     return word == "light" ? value : -1;
   };
   home.observer->set(world, "physics.daylight", "40000");
-  REQUIRE(waitFor([&] { return level() > 700; }, 30s));
+  const bool bright = waitFor([&] { return level() > 700; }, 30s);
+  INFO(home.describeAll());
+  REQUIRE(bright);
   home.observer->set(sensors, "fault.freeze", "on");
   const long stuck = level();
   // Night falls; the frozen sensor still reads the sun.
