@@ -466,6 +466,7 @@ class Runner {
     for (const auto id : gone) {
       if (!stopping_) say(displayName(id), "left the ecology (PEIS " + std::to_string(id) + ")");
     }
+    resubscribeSilent();
     for (auto& [owner, keys] : watched_) {
       if (resolved_.count(owner)) continue;
       const auto id = idOf(owner);
@@ -574,15 +575,39 @@ class Runner {
   }
 
   void watch(const std::string& owner, PeisId id, const std::string& key) {
-    kernel_->subscribe(Pattern::exact(id, key));
+    {
+      std::lock_guard lock(mu_);
+      watchedSubscriptions_[{owner, key}] = {id, kernel_->subscribe(Pattern::exact(id, key))};
+    }
     kernel_->onChange(Pattern::exact(id, key),
                       [this, owner, key](const Tuple& t) { onValue(owner, key, &t); });
     kernel_->onDelete(Pattern::exact(id, key),
                       [this, owner, key](const Tuple&) { onValue(owner, key, nullptr); });
   }
 
+  // A watched tuple that has shown no value yet is subscribed to again
+  // every 2 s: a fresh subscription makes its owner send what it has. (Under
+  // heavy load a subscriber was seen to miss an owner's existing tuple for
+  // good; a one-shot value, such as the plant's TiltValue, would then never
+  // reach the conditions.)
+  void resubscribeSilent() {
+    const auto now = Steady::now();
+    if (now < nextResubscribe_) return;
+    nextResubscribe_ = now + 2s;
+    std::lock_guard lock(mu_);
+    for (auto& [watched, subscription] : watchedSubscriptions_) {
+      if (seen_.count(watched)) continue;
+      kernel_->unsubscribe(subscription.second);
+      subscription.second = kernel_->subscribe(Pattern::exact(subscription.first, watched.second));
+    }
+  }
+
   // Kernel thread: a watched tuple changed (nullptr: deleted).
   void onValue(const std::string& owner, const std::string& key, const Tuple* t) {
+    if (t) {
+      std::lock_guard lock(mu_);
+      seen_.insert({owner, key});
+    }
     if (t && owner == worldName_ && key == "sim.time") {
       try {
         clock_.worldTime(std::stod(t->data));
@@ -787,6 +812,11 @@ class Runner {
   std::set<PeisId> present_;
   std::set<std::pair<PeisId, std::string>> tracedKeys_;
   std::map<std::pair<PeisId, std::string>, std::string> lastMeta_;  // meta tuples seen
+  // Watched (owner, key) -> (owner id, subscription); those that showed a value.
+  std::map<std::pair<std::string, std::string>, std::pair<PeisId, SubscriptionHandle>>
+      watchedSubscriptions_;
+  std::set<std::pair<std::string, std::string>> seen_;
+  Steady::time_point nextResubscribe_{};
   std::vector<std::string> lastNarrated_;
   std::string lastFault_;
   std::optional<double> lastFaultAt_;
