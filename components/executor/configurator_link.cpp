@@ -85,7 +85,10 @@ std::uint64_t GoalTupleConfigurator::publish() {
 
 void GoalTupleConfigurator::post(const std::vector<std::string>& needs, Done done) {
   for (const auto& need : needs) {
-    if (!parseNeed(need)) return done("'" + need + "' is not INFORMATION@PEIS.KEY");
+    // A need without a consumer (`image(astrid)`: the information must be
+    // produced) is posted too; the configurator's answer covers it.
+    if (!parseNeed(need) && need.find('@') != std::string::npos)
+      return done("'" + need + "' is not INFORMATION@PEIS.KEY");
     if (std::find(posted_.begin(), posted_.end(), need) == posted_.end()) posted_.push_back(need);
   }
   if (!subscribed_) {

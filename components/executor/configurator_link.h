@@ -52,6 +52,8 @@ class StaticConfigurator : public ConfiguratorLink {
 // that tuple at (or after) the posted seqno; `infeasible` or `refused`
 // fails it at once with the configurator's reason, and no answer by
 // `deadline` fails it with the last state seen.
+// A need without a consumer (`image(astrid)`: only produced) is posted too;
+// the configurator's answer covers it like the others.
 class GoalTupleConfigurator : public ConfiguratorLink {
  public:
   GoalTupleConfigurator(Kernel& kernel, std::string goalKey,
