@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <memory>
+#include <set>
 
 #include "execution/exec_server.h"
 #include "monitor/goal_tuples.h"
@@ -84,29 +85,64 @@ std::uint64_t GoalTupleConfigurator::publish() {
 }
 
 void GoalTupleConfigurator::post(const std::vector<std::string>& needs, Done done) {
+  std::vector<NeedParts> consumers;
   for (const auto& need : needs) {
     // A need without a consumer (`image(astrid)`: the information must be
     // produced) is posted too; the configurator's answer covers it.
-    if (!parseNeed(need) && need.find('@') != std::string::npos)
+    const auto parts = parseNeed(need);
+    if (parts) consumers.push_back(*parts);
+    if (!parts && need.find('@') != std::string::npos)
       return done("'" + need + "' is not INFORMATION@PEIS.KEY");
     if (std::find(posted_.begin(), posted_.end(), need) == posted_.end()) posted_.push_back(need);
   }
   if (!subscribed_) {
     kernel_.subscribe(Pattern(std::string(meta::kGoalStatusKey)));
+    kernel_.subscribe(Pattern("config.configurator"));
     subscribed_ = true;
   }
   const auto seqno = publish();
-  // Deployed when a configurator answers this seqno of the tuple (or a later one).
+  // Deployed when a configurator answers this seqno of the tuple (or a later
+  // one). With no configurator in the ecology at all, when every consumer's
+  // meta tuple points somewhere: a configuration made by hand (`peis meta`).
   struct Watch : std::enable_shared_from_this<Watch> {
     Kernel& kernel;
     std::string key;
     std::uint64_t seqno;
+    std::vector<NeedParts> consumers;
     Done done;
     std::chrono::steady_clock::time_point until;
     std::string last = "no configurator answered";
-    Watch(Kernel& k, std::string key, std::uint64_t s, Done d,
+    std::set<std::pair<PeisId, std::string>> followed;
+    Watch(Kernel& k, std::string key, std::uint64_t s, std::vector<NeedParts> c, Done d,
           std::chrono::steady_clock::time_point u)
-        : kernel(k), key(std::move(key)), seqno(s), done(std::move(d)), until(u) {}
+        : kernel(k),
+          key(std::move(key)),
+          seqno(s),
+          consumers(std::move(c)),
+          done(std::move(d)),
+          until(u) {}
+    bool configuratorAlive() const {
+      const auto peers = kernel.peers();
+      for (const auto& t : kernel.find(Pattern("config.configurator"))) {
+        for (const auto& p : peers)
+          if (p.id == t.owner && !t.data.empty()) return true;
+      }
+      return false;
+    }
+    bool pointedByHand() {
+      for (const auto& c : consumers) {
+        PeisId id = 0;
+        try {
+          id = kernel.resolveOwner(c.consumer);
+        } catch (const Error&) {
+          return false;
+        }
+        if (followed.insert({id, c.key}).second) kernel.subscribe(Pattern::exact(id, c.key));
+        const auto meta = kernel.get(id, c.key);
+        if (!meta || meta->data.empty()) return false;
+      }
+      return true;
+    }
     void check() {
       for (const auto& t : kernel.find(Pattern(std::string(meta::kGoalStatusKey)))) {
         for (const auto& line : meta::parseGoalStatus(t.data)) {
@@ -123,13 +159,15 @@ void GoalTupleConfigurator::post(const std::vector<std::string>& needs, Done don
           }
         }
       }
+      if (!configuratorAlive() && pointedByHand()) return done(std::nullopt);
       if (std::chrono::steady_clock::now() >= until)
         return done("the configurator did not deploy it in time (" + last + ")");
       kernel.after(std::chrono::milliseconds(20), [self = shared_from_this()] { self->check(); });
     }
   };
-  auto watch = std::make_shared<Watch>(kernel_, goalKey_, seqno, std::move(done),
-                                       std::chrono::steady_clock::now() + deadline_);
+  auto watch =
+      std::make_shared<Watch>(kernel_, goalKey_, seqno, std::move(consumers), std::move(done),
+                              std::chrono::steady_clock::now() + deadline_);
   kernel_.post([watch] { watch->check(); });
 }
 

@@ -53,7 +53,10 @@ class StaticConfigurator : public ConfiguratorLink {
 // fails it at once with the configurator's reason, and no answer by
 // `deadline` fails it with the last state seen.
 // A need without a consumer (`image(astrid)`: only produced) is posted too;
-// the configurator's answer covers it like the others.
+// the configurator's answer covers it like the others. With no configurator
+// in the ecology at all (no alive PEIS has `config.configurator`), a post
+// counts as deployed once every consumer's meta tuple points somewhere: a
+// configuration made by hand (`peis meta`), as the scenario tests do.
 class GoalTupleConfigurator : public ConfiguratorLink {
  public:
   GoalTupleConfigurator(Kernel& kernel, std::string goalKey,

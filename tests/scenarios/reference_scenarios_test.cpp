@@ -1,10 +1,11 @@
 // The three reference scenarios (scenarios/*.yaml) as far as the components
-// carry them today: the meta-level's runtime (the configurator PEIS, branch
-// meta-runtime) is not there, so each runs without it (--without
-// configurator) up to its first step that needs a configuration, and these
-// tests check exactly what holds by then and what is the first condition
-// that does not. When the configurator lands they become full runs (see
-// docs/scenarios.md, "What each scenario needs from the meta-level").
+// carry them today: each runs without the meta-level's configurator
+// (--without configurator; peis-configurator is built, but the reference
+// components' descriptors do not yet type their ports as the executor's
+// needs name them) up to its first step that needs a configuration, and
+// these tests check exactly what holds by then and what is the first
+// condition that does not (see docs/scenarios.md, "What each scenario needs
+// from the meta-level").
 #include <peis/kernel.h>
 
 #include <catch2/catch.hpp>
@@ -50,11 +51,12 @@ TEST_CASE("reference scenarios: the three files are valid and name the configura
     const Run without = run({"check", scenario(name), "--without", "configurator"}, 60s);
     INFO(without.out << without.err);
     CHECK(without.status == 0);
-    // The meta-level's configurator is the one program not built yet.
+    // The meta-level's configurator is built (peis-configurator): the files
+    // are valid with it too.
     const Run with = run({"check", scenario(name)}, 60s);
-    CHECK(with.status == 1);
-    CHECK_THAT(with.err, Contains("unknown program 'peis-configurator'"));
-    CHECK_THAT(with.err, Contains("1 problem"));
+    INFO(with.out << with.err);
+    CHECK(with.status == 0);
+    CHECK_THAT(with.out, Contains("valid"));
   }
 }
 
