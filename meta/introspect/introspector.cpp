@@ -25,6 +25,7 @@ bool isMetaInputKey(std::string_view key) { return startsWith(key, cv::kMetaInpu
 
 // The keys every PEIS is watched for, whoever owns them.
 const std::vector<std::string> kWatched = {special::kAllKeys,
+                                           special::kPeers,
                                            std::string(cv::kStatus),
                                            std::string(cv::kCauseNames),
                                            std::string(cv::kComponentName),
@@ -63,6 +64,7 @@ struct Introspector::State {
     std::map<std::string, SubscriptionHandle> exact;  // per-owner subscriptions by key
     std::set<std::string> actuatorKeys;               // `<act>.reqState` … of the descriptor
     std::chrono::steady_clock::time_point goneAt{};   // when it left (if it did)
+    std::set<std::string> peersListed;                // its `kernel.peers`: whom it reaches
   };
   // A PEIS gone this long is forgotten (it is kept meanwhile, for explanations).
   static constexpr std::chrono::minutes kForgetAfter{10};
@@ -77,7 +79,7 @@ struct Introspector::State {
     if (isMetaInputKey(key) || peer.actuatorKeys.count(key)) return true;
     if (key == cv::kStatus || key == cv::kCauseNames || key == cv::kComponentName ||
         key == cv::kComponentDescriptor || key == "tiny.bridge" || key == "config.owned" ||
-        key == "config.lock" || key == "config.configurator")
+        key == "config.lock" || key == "config.configurator" || key == special::kPeers)
       return true;
     return startsWith(key, cv::kFactPrefix) || startsWith(key, "config.goal.");
   }
@@ -217,6 +219,8 @@ struct Introspector::State {
           } else {
             onDescriptor(peer, t.owner, data);
           }
+        } else if (key == special::kPeers) {
+          peer.peersListed = splitWords(data);
         } else if (key == "tiny.bridge") {
           live.radio = !deleted;
         } else if (key == "config.owned") {
@@ -262,7 +266,11 @@ struct Introspector::State {
     if (notify) notify();
   }
 
+  // Every alive PEIS's key list and followed keys are here, and no PEIS
+  // reaches one that this one does not (a PEIS not heard from yet).
   bool completeLocked() const {
+    std::set<std::string> reachable;
+    for (const auto& info : kernel.peers()) reachable.insert(std::to_string(info.id));
     for (const auto& [id, peer] : peers) {
       if (!peer.live.alive || (peer.tool && !includeTools)) continue;
       if (id == kernel.id()) continue;
@@ -270,6 +278,8 @@ struct Introspector::State {
       for (const auto& key : peer.allKeys) {
         if (follows(peer, key) && !peer.received.count(key)) return false;
       }
+      for (const auto& other : peer.peersListed)
+        if (!reachable.count(other)) return false;
     }
     return true;
   }
