@@ -232,7 +232,7 @@ NetworkStats Kernel::networkStats() const {
     if (!impl_->network) return;
     const auto& c = impl_->network->counters();
     stats = NetworkStats{c.framesIn,
-                         c.framesOut,
+                         c.framesOut + c.directFramesOut.load(std::memory_order_relaxed),
                          c.malformedFrames,
                          c.garbagePeersDisconnected,
                          c.foreignEcologyRejected,

@@ -17,12 +17,14 @@
 #include <condition_variable>
 #include <deque>
 #include <future>
+#include <map>
 #include <memory>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "adaptive_mutex.h"
+#include "net/link.h"
 #include "net/network.h"
 #include "peis/kernel.h"
 #include "remote_writes.h"
@@ -63,6 +65,17 @@ struct Kernel::Impl {
   std::vector<PeerInfo> peerSnapshot GUARDED_BY(mu);  // what peers() returns
   std::string publishedSubscribers GUARDED_BY(mu);
   WriteGate writeGate GUARDED_BY(mu);
+  // Direct sends (docs/architecture.md, "Direct sends"): the link towards
+  // each destination, as of the last topology change; whether flush has
+  // taken entries it has not handed to the links yet (then nobody may send
+  // around it); and when the last direct send happened, and whether a
+  // message arrived since (a stream is left to flush's batches instead).
+  std::map<PeisId, std::shared_ptr<net::Link>> directLinks GUARDED_BY(mu);
+  std::size_t directBacklogLimit GUARDED_BY(mu) = 0;
+  bool handingOff GUARDED_BY(mu) = false;
+  std::chrono::steady_clock::time_point lastDirect GUARDED_BY(mu);
+  bool receivedSinceDirect GUARDED_BY(mu) = true;
+  std::vector<Replication::Outgoing> directOut GUARDED_BY(mu);  // memory reused
 
   // --- Kernel thread only (no lock) ----------------------------------------------
   std::unique_ptr<net::Network> network;
@@ -115,8 +128,19 @@ struct Kernel::Impl {
   }
 
   // --- kernel_pump.cpp ---
-  // Posts drain / flush / the retry timer as the state needs; wakes readers.
+  // Posts drain / flush / the retry timer as the state needs (or sends
+  // the outbox at once, sendDirect); wakes readers.
   void afterMutation() REQUIRES(mu);
+  // Sends what waits in the outbox from the calling thread, straight to the
+  // links, when that keeps every rule (see kernel_pump.cpp); true when
+  // nothing that could be sent is left for flush.
+  bool sendDirect() REQUIRES(mu);
+  // The links for direct sends, after a topology change (kernel thread).
+  void refreshDirectLinks() REQUIRES(mu);
+  // Runs deliveries now when on the kernel thread in a handler that
+  // applied received messages (no post, no extra turn of the loop).
+  bool drainInline = false;    // kernel thread only
+  bool drainDeferred = false;  // kernel thread only: afterMutation left the drain to it
   void drain() EXCLUDES(mu);
   void flush() EXCLUDES(mu);
   void onWritable() EXCLUDES(mu);

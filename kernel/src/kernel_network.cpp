@@ -57,6 +57,7 @@ void Kernel::Impl::stopNetwork(std::function<void()> closed) {  // kernel thread
   {
     MutexLock lock(mu);
     networkStopped = true;
+    directLinks.clear();
   }
   retryTimer.cancel();
   flushTimer.cancel();
@@ -95,6 +96,7 @@ void Kernel::Impl::refreshSubscribersTuple() {
 
 void Kernel::Impl::onTopology() {
   MutexLock lock(mu);
+  refreshDirectLinks();
   snapshotPeers();
   refreshMembershipTuples();
   afterMutation();
@@ -175,8 +177,10 @@ void Kernel::Impl::onMessages(std::vector<wire::RoutedMessage>&& messages) {
   std::vector<std::pair<PeisId, wire::WriteResult>> results;
   std::vector<std::pair<PeisId, wire::Write>> gated;
   WriteGate gate;
+  drainInline = true;  // the deliveries run below, without a post
   {
     MutexLock lock(mu);
+    receivedSinceDirect = true;  // an answer may follow: send it at once
     for (auto& message : messages) {
       const auto source = message.envelope.source;
       std::visit(
@@ -213,8 +217,12 @@ void Kernel::Impl::onMessages(std::vector<wire::RoutedMessage>&& messages) {
     afterMutation();
     if (!gated.empty()) gate = writeGate;
   }
+  drainInline = false;
   for (auto& [source, write] : gated) holdWrite(gate, source, std::move(write));
   for (auto& [source, result] : results) remoteWrites.onResult(source, result);
+  // The callbacks of what arrived run now, on this turn of the loop (as a
+  // listener on a receive thread does), not after a post.
+  if (std::exchange(drainDeferred, false)) drain();
 }
 
 PeisId Kernel::Impl::repickId() {

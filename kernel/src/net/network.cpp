@@ -77,6 +77,11 @@ class Network::Impl final : public LinkHandler {
   bool blocked(PeisId destination);
   void cutOff(PeisId destination, const std::string& reason);
   bool reachable(PeisId id) const { return table_.contains(id); }
+  std::shared_ptr<Link> linkTowards(PeisId destination) const {
+    const PeisId next = table_.nextHop(destination);
+    return next == 0 ? nullptr : linkTo(next);
+  }
+  std::size_t congestedAboveBytes() const { return config_.coalesceAboveBytes; }
   std::uint16_t listenPort() const {
     boost::system::error_code ec;
     const auto endpoint = acceptor_.local_endpoint(ec);
@@ -535,7 +540,7 @@ void Network::Impl::pingLoop() {
       // So does one that receives a big frame and sends nothing: the peer
       // sending it hears nothing else, and its own Ping waits behind the frame.
       const bool quiet = now - link->lastHeard_ >= config_.pingPeriod ||
-                         (link->midFrame() && now - link->lastSent_ >= config_.pingPeriod);
+                         (link->midFrame() && now - link->lastSent() >= config_.pingPeriod);
       if (!link->established_ || !quiet) continue;
       sendLinkMessage(*link,
                       wire::Ping{static_cast<std::uint64_t>(now.time_since_epoch().count())});
@@ -981,6 +986,10 @@ void Network::cutOff(PeisId destination, const std::string& reason) {
   impl_->cutOff(destination, reason);
 }
 bool Network::reachable(PeisId id) const { return impl_->reachable(id); }
+std::shared_ptr<Link> Network::linkTowards(PeisId destination) const {
+  return impl_->linkTowards(destination);
+}
+std::size_t Network::congestedAboveBytes() const { return impl_->congestedAboveBytes(); }
 std::vector<PeerInfo> Network::peers() const { return impl_->peers(); }
 std::vector<LinkInfo> Network::links() const { return impl_->links(); }
 const Counters& Network::counters() const { return impl_->counters_; }
