@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "adaptive_mutex.h"
+#include "direct_send.h"
 #include "net/link.h"
 #include "net/network.h"
 #include "peis/kernel.h"
@@ -75,7 +76,6 @@ struct Kernel::Impl {
   bool handingOff GUARDED_BY(mu) = false;
   std::chrono::steady_clock::time_point lastDirect GUARDED_BY(mu);
   bool receivedSinceDirect GUARDED_BY(mu) = true;
-  std::vector<Replication::Outgoing> directOut GUARDED_BY(mu);  // memory reused
 
   // --- Kernel thread only (no lock) ----------------------------------------------
   std::unique_ptr<net::Network> network;
@@ -104,11 +104,16 @@ struct Kernel::Impl {
 
   // Runs fn(space, replication) under the lock, then wakes the kernel
   // thread and blocked readers as needed.
+  // What it queued for the network is sent from this thread, straight to
+  // the links, when that keeps the rules (sendDirect).
   template <typename F>
   auto mutate(F&& fn) EXCLUDES(mu) {
+    DirectSend direct;
     MutexLock lock(mu);
     auto result = fn(space, replication);
-    afterMutation();
+    afterMutation(&direct);
+    lock.unlock();
+    direct.send();
     return result;
   }
 
@@ -128,19 +133,21 @@ struct Kernel::Impl {
   }
 
   // --- kernel_pump.cpp ---
-  // Posts drain / flush / the retry timer as the state needs (or sends
-  // the outbox at once, sendDirect); wakes readers.
-  void afterMutation() REQUIRES(mu);
-  // Sends what waits in the outbox from the calling thread, straight to the
-  // links, when that keeps every rule (see kernel_pump.cpp); true when
-  // nothing that could be sent is left for flush.
-  bool sendDirect() REQUIRES(mu);
+  // Posts drain / flush / the retry timer as the state needs; wakes
+  // readers. With `direct`, what waits in the outbox may go into it instead
+  // (sendDirect), for the caller to send once it has let go of mu.
+  void afterMutation(DirectSend* direct = nullptr) REQUIRES(mu);
+  // Takes what waits in the outbox into `direct` when that keeps every rule
+  // (see kernel_pump.cpp); true when nothing that could be sent is left
+  // for flush.
+  bool sendDirect(DirectSend& direct) REQUIRES(mu);
   // The links for direct sends, after a topology change (kernel thread).
   void refreshDirectLinks() REQUIRES(mu);
   // Runs deliveries now when on the kernel thread in a handler that
   // applied received messages (no post, no extra turn of the loop).
   bool drainInline = false;    // kernel thread only
   bool drainDeferred = false;  // kernel thread only: afterMutation left the drain to it
+  bool flushDeferred = false;  // kernel thread only: and the flush
   void drain() EXCLUDES(mu);
   void flush() EXCLUDES(mu);
   void onWritable() EXCLUDES(mu);

@@ -220,8 +220,10 @@ void Kernel::Impl::onMessages(std::vector<wire::RoutedMessage>&& messages) {
   drainInline = false;
   for (auto& [source, write] : gated) holdWrite(gate, source, std::move(write));
   for (auto& [source, result] : results) remoteWrites.onResult(source, result);
-  // The callbacks of what arrived run now, on this turn of the loop (as a
-  // listener on a receive thread does), not after a post.
+  // What it queued goes out, and the callbacks of what arrived run, now, on
+  // this turn of the loop (as a listener on a receive thread does), not
+  // after a post.
+  if (std::exchange(flushDeferred, false)) flush();
   if (std::exchange(drainDeferred, false)) drain();
 }
 

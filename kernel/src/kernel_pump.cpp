@@ -25,16 +25,21 @@ constexpr std::size_t kMaxWaitingBytes = 16u << 20;
 
 }  // namespace
 
-void Kernel::Impl::afterMutation() {
-  if (!flushScheduled && replication.outbox().hasReady() && !sendDirect()) {
+void Kernel::Impl::afterMutation(DirectSend* direct) {
+  // A handler of received messages delivers and sends itself once it has
+  // let go of the lock (Impl::onMessages); anything else posts.
+  const bool handlerRuns = drainInline && std::this_thread::get_id() == threadId;
+  if (!flushScheduled && replication.outbox().hasReady() && !(direct && sendDirect(*direct))) {
     flushScheduled = true;
-    asio::post(io, [this] { flush(); });
+    if (handlerRuns) {
+      flushDeferred = true;
+    } else {
+      asio::post(io, [this] { flush(); });
+    }
   }
   if (!drainScheduled && (space.hasPendingDeliveries() || space.allKeysDirty())) {
     drainScheduled = true;
-    // A handler of received messages runs them itself once it has let go
-    // of the lock (Impl::onMessages); anything else posts.
-    if (drainInline && std::this_thread::get_id() == threadId) {
+    if (handlerRuns) {
       drainDeferred = true;
     } else {
       asio::post(io, [this] { drain(); });
@@ -64,43 +69,33 @@ namespace {
 constexpr std::chrono::microseconds kDirectGap{20};
 }  // namespace
 
-bool Kernel::Impl::sendDirect() {
+bool Kernel::Impl::sendDirect(DirectSend& direct) {
   if (directLinks.empty() || handingOff || networkStopped) return false;
   const auto now = std::chrono::steady_clock::now();
   if (!receivedSinceDirect && now - lastDirect < kDirectGap) return false;
   auto& outbox = replication.outbox();
-  directOut.clear();
+  if (auto spare = DirectSend::spareFrames(); spare.capacity() > 0) {
+    outbox.recycleFrames(std::move(spare));
+  }
+  thread_local std::vector<Replication::Outgoing> taken;  // memory reused
+  taken.clear();
   outbox.take(
-      directOut, kMessagesPerTurn, kBytesPerTurn,
-      [this](PeisId destination) {
+      taken, kMessagesPerTurn, kBytesPerTurn,
+      [&](PeisId destination) {
         mu.assertHeld();
         const auto it = directLinks.find(destination);
-        return it == directLinks.end() || !it->second->takesDirect(directBacklogLimit);
+        return it == directLinks.end() || !direct.admit(it->second, directBacklogLimit);
       },
       /*noteBlocked=*/false);
-  if (directOut.empty()) return false;
+  if (taken.empty()) return false;
   lastDirect = now;
   receivedSinceDirect = false;
-  const PeisId self = id;
-  std::string frame;
-  for (auto& out : directOut) {
-    auto& link = *directLinks.at(out.destination);
-    const wire::Envelope envelope{self, out.destination, wire::kDefaultTtl};
-    if (out.frameCount > 0) {
-      link.sendNow(out.frames, nullptr, out.frameCount);
-      outbox.recycleFrames(std::move(out.frames));
-    } else if (out.update) {
-      const bool big = out.update->data.size() >= wire::kZeroCopyDataBytes;
-      frame.clear();
-      wire::encodeTupleUpdate(envelope, incarnation, *out.update, frame,
-                              big ? wire::TupleData::Omit : wire::TupleData::Include);
-      link.sendNow(frame, big ? out.update : nullptr, 1);
-    } else {
-      link.sendNow(wire::encodeFrame(wire::RoutedMessage{envelope, std::move(*out.body)}), nullptr,
-                   1);
-    }
+  direct.stamp(id, incarnation);
+  for (auto& out : taken) {
+    const auto destination = out.destination;
+    direct.add(directLinks.at(destination).get(), std::move(out));
   }
-  directOut.clear();  // drop the references to sent tuples now
+  taken.clear();
   return !outbox.hasReady();
 }
 

@@ -92,18 +92,20 @@ void Link::sendBytes(std::string_view bytes, std::uint32_t frames) {
   write();
 }
 
-bool Link::takesDirect(std::size_t mostBacklog) const {
+bool Link::lockForDirect(std::size_t mostBacklog) {
   if (congested_.load(std::memory_order_relaxed)) return false;
-  MutexLock lock(writeMu_);
-  return !writeClosed_ && inFlight_ + queued_ <= mostBacklog;
+  writeMu_.lock();
+  if (!writeClosed_ && inFlight_ + queued_ <= mostBacklog) return true;
+  writeMu_.unlock();
+  return false;
 }
 
 std::size_t Link::sendNow(std::string_view bytes, const std::shared_ptr<const Tuple>& tail,
                           std::uint32_t frames) {
-  MutexLock lock(writeMu_);
   if (writeClosed_) return 0;
   const std::string_view data = tail ? std::string_view(tail->data) : std::string_view();
   const std::size_t size = bytes.size() + data.size();
+  counters_.directFramesOut.fetch_add(frames, std::memory_order_relaxed);
   std::size_t sent = 0;
   if (!writing_ && chunks_.empty()) {
     // Idle: straight to the socket, from this thread (no hand-off to the
@@ -117,15 +119,12 @@ std::size_t Link::sendNow(std::string_view bytes, const std::shared_ptr<const Tu
     lastSent_ = SteadyClock::now();
     // An error is left to the kernel thread's write, which closes the link.
     sent = n > 0 ? static_cast<std::size_t>(n) : 0;
-    counters_.directFramesOut.fetch_add(frames, std::memory_order_relaxed);
     if (sent == size) return sent;
     // The rest waits, and the kernel thread writes it: nobody else writes
     // meanwhile (writing_), so the bytes stay in order.
     writing_ = true;
     writingSince_ = lastSent_;
     boost::asio::post(socket_.get_executor(), [self = shared_from_this()] { self->resumeWrite(); });
-  } else {
-    counters_.directFramesOut.fetch_add(frames, std::memory_order_relaxed);
   }
   // Behind what is queued or being written (or the rest of the above).
   if (sent < bytes.size()) {

@@ -73,10 +73,13 @@ class Link : public std::enable_shared_from_this<Link> {
   // Sends what is queued, then closes.
   void closeAfterFlush(const std::string& reason);
 
-  // --- Any thread -------------------------------------------------------------
-  // Whether sendNow() would take more: the link is open, not found
-  // congested, and holds at most `mostBacklog` bytes.
-  bool takesDirect(std::size_t mostBacklog) const;
+  // --- Direct sends, from any thread ------------------------------------------
+  // Takes the write lock if the link takes a direct send: it is open, not
+  // found congested, and holds at most `mostBacklog` bytes; else leaves it
+  // and returns false. What is sent to the link after the lock was taken
+  // (by anybody) queues behind what the holder sends.
+  bool lockForDirect(std::size_t mostBacklog) TRY_ACQUIRE(true, writeMu_);
+  void unlockWrites() RELEASE(writeMu_) { writeMu_.unlock(); }
   // Sends `frames` whole frames (`bytes`, then `tail`'s data when set, which
   // ends the last frame) from the calling thread: written to the socket at
   // once when nothing else is queued or being written (the rest, if the
@@ -84,7 +87,7 @@ class Link : public std::enable_shared_from_this<Link> {
   // behind what is. Dropped when the link has closed. Returns the bytes
   // written at once.
   std::size_t sendNow(std::string_view bytes, const std::shared_ptr<const Tuple>& tail,
-                      std::uint32_t frames);
+                      std::uint32_t frames) REQUIRES(writeMu_);
 
   // Bytes queued or being written.
   std::size_t backlog() const {
