@@ -67,7 +67,7 @@ struct Kernel::Impl {
   std::string publishedSubscribers GUARDED_BY(mu);
   WriteGate writeGate GUARDED_BY(mu);
   // Direct sends (docs/architecture.md, "Direct sends"): the link towards
-  // each destination, as of the last topology change; whether flush has
+  // each destination flush has served since the last topology change; whether flush has
   // taken entries it has not handed to the links yet (then nobody may send
   // around it); and when the last direct send happened, and whether a
   // message arrived since (a stream is left to flush's batches instead).
@@ -141,8 +141,9 @@ struct Kernel::Impl {
   // (see kernel_pump.cpp); true when nothing that could be sent is left
   // for flush.
   bool sendDirect(DirectSend& direct) REQUIRES(mu);
-  // The links for direct sends, after a topology change (kernel thread).
-  void refreshDirectLinks() REQUIRES(mu);
+  // Forgets the links for direct sends: the topology changed (kernel
+  // thread). flush() notes the link of each destination it serves.
+  void forgetDirectLinks() REQUIRES(mu);
   // Runs deliveries now when on the kernel thread in a handler that
   // applied received messages (no post, no extra turn of the loop).
   bool drainInline = false;    // kernel thread only

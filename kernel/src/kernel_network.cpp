@@ -96,7 +96,7 @@ void Kernel::Impl::refreshSubscribersTuple() {
 
 void Kernel::Impl::onTopology() {
   MutexLock lock(mu);
-  refreshDirectLinks();
+  forgetDirectLinks();
   snapshotPeers();
   refreshMembershipTuples();
   afterMutation();

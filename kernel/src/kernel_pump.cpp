@@ -99,13 +99,9 @@ bool Kernel::Impl::sendDirect(DirectSend& direct) {
   return !outbox.hasReady();
 }
 
-void Kernel::Impl::refreshDirectLinks() {
-  directLinks.clear();
-  if (!network || networkStopped) return;
-  directBacklogLimit = network->congestedAboveBytes();
-  for (const auto& peer : network->peers()) {
-    if (auto link = network->linkTowards(peer.id)) directLinks.emplace(peer.id, std::move(link));
-  }
+void Kernel::Impl::forgetDirectLinks() {
+  directLinks.clear();  // flush notes them again as it sends (a join changes the topology often)
+  if (network) directBacklogLimit = network->congestedAboveBytes();
 }
 
 void Kernel::Impl::armRetry() {  // kernel thread
@@ -186,6 +182,15 @@ void Kernel::Impl::flush() {  // kernel thread
     for (const auto& out : outgoing) messages += out.frameCount > 0 ? out.frameCount : 1;
     // Until they are handed to the links, nobody sends around them.
     handingOff = !outgoing.empty();
+    // The links of the destinations served here take the next direct sends.
+    if (network && !networkStopped) {
+      for (const auto& out : outgoing) {
+        if (directLinks.count(out.destination)) continue;
+        if (auto link = network->linkTowards(out.destination)) {
+          directLinks.emplace(out.destination, std::move(link));
+        }
+      }
+    }
     if (more) {
       asio::post(io, [this] { flush(); });  // more: let the sockets drain first
     } else if (messages >= kStreamMessages) {
