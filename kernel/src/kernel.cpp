@@ -102,14 +102,14 @@ Tuple Kernel::set(std::string_view key, std::string data, const WriteOptions& op
   bool backedUp = false;
   auto tuple = impl_->mutate([&](TupleSpace& s, Replication& r) {
     auto stored = s.set(key, std::move(data), options);
-    backedUp = r.outboxBytes() >= Replication::kTrackOutboxAbove;
+    backedUp = r.outboxBytes() >= Impl::kWriterWaitAbove;
     return stored;
   });
   impl_->noteExpiry(*tuple);
-  // A writer that outruns the network (its updates have started to wait in
-  // the outbox, to be coalesced) gives up the rest of its time slice, so the
-  // threads that send and deliver get the CPU its next writes would take.
-  if (backedUp && !onKernelThread()) std::this_thread::yield();
+  // A writer that outruns its subscribers (updates have started to wait in
+  // the outbox) waits, a bounded time, for them to catch up, rather than
+  // produce values that would be coalesced (Impl::awaitOutbox).
+  if (backedUp && !onKernelThread()) impl_->awaitOutbox();
   return *tuple;
 }
 

@@ -56,6 +56,9 @@ struct Kernel::Impl {
   mutable AdaptiveMutex mu;
   // Signalled (mu held) on every mutation while `waiters` > 0: blocking get.
   mutable std::condition_variable_any changed;
+  // Signalled (mu held) when the outbox has drained while writers wait for
+  // it (awaitOutbox).
+  std::condition_variable_any outboxDrained;
   TupleSpace space GUARDED_BY(mu);
   Replication replication GUARDED_BY(mu);
   bool drainScheduled GUARDED_BY(mu) = false;
@@ -63,6 +66,11 @@ struct Kernel::Impl {
   bool retryArmed GUARDED_BY(mu) = false;             // retryTimer armed or posted
   bool networkStopped GUARDED_BY(mu) = false;         // no retry timer after stopNetwork
   mutable int waiters GUARDED_BY(mu) = 0;             // threads blocked in get(…, wait)
+  int outboxWaiters GUARDED_BY(mu) = 0;               // writers in awaitOutbox
+  // A writer's wait ran out without the outbox draining: a subscriber does
+  // not keep up, and writers do not wait again until the outbox drained.
+  bool outboxLagging GUARDED_BY(mu) = false;
+  std::uint64_t outboxTaken GUARDED_BY(mu) = 0;  // entries flush took: progress
   std::vector<PeerInfo> peerSnapshot GUARDED_BY(mu);  // what peers() returns
   std::string publishedSubscribers GUARDED_BY(mu);
   WriteGate writeGate GUARDED_BY(mu);
@@ -133,6 +141,18 @@ struct Kernel::Impl {
   }
 
   // --- kernel_pump.cpp ---
+  // Writer backpressure (docs/architecture.md, "Backpressure"): a writer
+  // that finds kWriterWaitAbove bytes of updates waiting in the outbox waits
+  // until they are down to kWriterResumeBelow, as long as some leave it
+  // every kWriterProgressWait and at most kWriterMaxWait; if they do not, a
+  // subscriber does not keep up: writers stop waiting (its updates
+  // coalesce, as before) until the outbox drains.
+  static constexpr std::size_t kWriterWaitAbove = 1u << 20;
+  static constexpr std::size_t kWriterResumeBelow = 256u << 10;
+  static constexpr std::chrono::milliseconds kWriterProgressWait{20};
+  static constexpr std::chrono::milliseconds kWriterMaxWait{100};
+  void awaitOutbox() EXCLUDES(mu);
+  void noteOutboxDrained() REQUIRES(mu);
   // Posts drain / flush / the retry timer as the state needs; wakes
   // readers. With `direct`, what waits in the outbox may go into it instead
   // (sendDirect), for the caller to send once it has let go of mu.

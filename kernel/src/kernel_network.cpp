@@ -58,6 +58,7 @@ void Kernel::Impl::stopNetwork(std::function<void()> closed) {  // kernel thread
     MutexLock lock(mu);
     networkStopped = true;
     directLinks.clear();
+    outboxDrained.notify_all();
   }
   retryTimer.cancel();
   flushTimer.cancel();
@@ -116,6 +117,7 @@ void Kernel::Impl::onPeerDown(PeisId peer) {
     log::debug(id, "PEIS " + std::to_string(peer) + " is gone");
     replication.onPeerDown(peer);
     replication.outbox().drop(peer);  // nothing waits for a PEIS that is gone
+    noteOutboxDrained();
     refreshSubscribersTuple();        // the membership tuples follow with onTopology
     afterMutation();
   }

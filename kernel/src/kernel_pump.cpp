@@ -104,6 +104,34 @@ void Kernel::Impl::forgetDirectLinks() {
   if (network) directBacklogLimit = network->congestedAboveBytes();
 }
 
+void Kernel::Impl::awaitOutbox() {  // an application thread
+  MutexLock lock(mu);
+  if (outboxLagging) return;
+  ++outboxWaiters;
+  const auto deadline = std::chrono::steady_clock::now() + kWriterMaxWait;
+  while (true) {
+    const auto taken = outboxTaken;
+    const bool drained = outboxDrained.wait_for(lock, kWriterProgressWait, [this] {
+      mu.assertHeld();
+      return replication.outboxBytes() < kWriterResumeBelow || networkStopped;
+    });
+    if (drained) break;
+    // Nothing left the outbox for a while (its link is stalled), or the
+    // wait is long already: a subscriber does not keep up.
+    if (outboxTaken == taken || std::chrono::steady_clock::now() >= deadline) {
+      outboxLagging = true;
+      break;
+    }
+  }
+  --outboxWaiters;
+}
+
+void Kernel::Impl::noteOutboxDrained() {
+  if (replication.outboxBytes() >= kWriterResumeBelow) return;
+  outboxLagging = false;
+  if (outboxWaiters > 0) outboxDrained.notify_all();
+}
+
 void Kernel::Impl::armRetry() {  // kernel thread
   std::optional<std::chrono::steady_clock::time_point> at;
   {
@@ -178,10 +206,12 @@ void Kernel::Impl::flush() {  // kernel thread
         cutOff.push_back(destination);
       }
     }
+    noteOutboxDrained();
     std::size_t messages = 0;
     for (const auto& out : outgoing) messages += out.frameCount > 0 ? out.frameCount : 1;
     // Until they are handed to the links, nobody sends around them.
     handingOff = !outgoing.empty();
+    outboxTaken += outgoing.size();
     // The links of the destinations served here take the next direct sends.
     if (network && !networkStopped) {
       for (const auto& out : outgoing) {
