@@ -390,6 +390,16 @@ ScaleResult scale(int n, const std::string& ecology) {
       },
       60s);
   if (all) result.secondsToAll = std::chrono::duration<double>(Clock::now() - start).count();
+  if (progress) {
+    // The CPU the nodes spent until then: far less sensitive to the load of
+    // the machine than the time (docs/performance.md, "Scale").
+    long ticks = 0;
+    for (auto& node : nodes) ticks += procTicks(node->pid());
+    std::fprintf(stderr, "scale %d: %.2f s: all %s, CPU of the nodes until then %.2f s\n", n,
+                 std::chrono::duration<double>(Clock::now() - start).count(),
+                 all ? "values seen" : "values NOT seen",
+                 static_cast<double>(ticks) / static_cast<double>(sysconf(_SC_CLK_TCK)));
+  }
   std::this_thread::sleep_for(4s);  // let start-up work (and link pruning) finish first
   std::vector<long> before;
   for (auto& node : nodes) before.push_back(procTicks(node->pid()));
