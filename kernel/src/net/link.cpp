@@ -1,6 +1,8 @@
 // Link: one TCP connection's reads and writes; see link.h.
 #include "net/link.h"
 
+#include <netinet/in.h>
+#include <netinet/tcp.h>
 #include <sys/socket.h>
 
 #include <algorithm>
@@ -165,6 +167,13 @@ void Link::closeAfterFlush(const std::string& reason) {
     idle = !writing_;
   }
   if (idle) close(reason);
+}
+
+bool Link::peerAcknowledgesAll() {
+  tcp_info info{};
+  socklen_t size = sizeof info;
+  if (::getsockopt(socket_.native_handle(), IPPROTO_TCP, TCP_INFO, &info, &size) != 0) return false;
+  return info.tcpi_unacked == 0;
 }
 
 bool Link::bytesWaiting() {

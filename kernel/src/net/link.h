@@ -96,6 +96,9 @@ class Link : public std::enable_shared_from_this<Link> {
   }
   // Bytes have arrived that are not read yet (a sign of life).
   bool bytesWaiting();
+  // The peer's TCP stack has acknowledged everything this end sent (its
+  // host lives and takes our bytes, though its process may be slow).
+  bool peerAcknowledgesAll();
   // Part of a frame has arrived and the rest has not (a big frame in transit).
   bool midFrame() const { return inEnd_ > inPos_ || skip_ > 0; }
   bool closed() const { return closed_; }

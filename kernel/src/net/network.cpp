@@ -40,6 +40,9 @@ constexpr std::chrono::milliseconds kDialMaxDelay{1000};
 constexpr std::chrono::milliseconds kRecomputeDelay{20};  // recomputes at most every 20 ms
 constexpr std::chrono::seconds kHoldFor{3};  // how long a frame waits for its source's route
 constexpr std::size_t kMaxHeldFrames = 1024;
+// How many liveness times a silent peer whose host still acknowledges our
+// bytes is given (see pingLoop).
+constexpr int kSlowPeerGrace = 4;
 
 }  // namespace
 
@@ -519,8 +522,19 @@ void Network::Impl::pingLoop() {
     for (auto& link : links) {
       // Bytes waiting in the socket are a sign of life too: after this
       // thread was starved (a busy host), the timer can run before the reads.
-      if (now - link->lastHeard_ > config_.deadAfter && !link->bytesWaiting()) {
-        link->close("silent for more than " + std::to_string(config_.deadAfter.count()) + " ms");
+      // A peer whose host still acknowledges every byte sent to it (our
+      // pings) is slow, not gone: a host so loaded that processes wait
+      // seconds for a core (a join of hundreds of PEIS on two cores) would
+      // otherwise close links that are fine, and their re-linking feeds the
+      // load. It gets kSlowPeerGrace times the liveness time; a peer whose
+      // host is gone leaves our bytes unacknowledged and is closed as before.
+      const auto silent = now - link->lastHeard_;
+      if (silent > config_.deadAfter && !link->bytesWaiting() &&
+          (silent > config_.deadAfter * kSlowPeerGrace || !link->peerAcknowledgesAll())) {
+        link->close(
+            "silent for more than " +
+            std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(silent).count()) +
+            " ms");
         continue;
       }
       // A peer that stopped reading: its link stays congested and takes
