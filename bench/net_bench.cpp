@@ -114,7 +114,7 @@ int rolePeisEcho(const std::map<std::string, std::string>& flags) {
   peis::Kernel kernel(options);
   const int peer = std::stoi(flags.at("--peer"));
   kernel.onChange(peis::Pattern::exact(peer, "ping"),
-                  [&](const peis::Tuple& t) { kernel.set("pong", t.data); });
+                  [&](const peis::Tuple& t) { kernel.publish("pong", t.data); });
   kernel.subscribe(peis::Pattern::exact(peer, "ping"));
   kernel.run();
   return 0;
@@ -229,7 +229,7 @@ Percentiles peisRoundTrip(std::size_t bytes, int count, const std::string& ecolo
     std::memcpy(payload.data(), tag, std::min<std::size_t>(16, bytes));
     const std::string expect = payload.substr(0, 16);
     const auto start = Clock::now();
-    kernel.set("ping", payload);
+    kernel.publish("ping", payload);
     std::unique_lock lock(mu);
     if (!cv.wait_for(lock, 5s, [&] { return lastPong == expect; })) break;
     if (i >= 50)
@@ -267,7 +267,7 @@ Throughput streamTo(std::size_t bytes, int sinks, const std::string& ecology,
   const auto until = Clock::now() + writeFor;
   std::uint64_t written = 0, last = 0;
   while (Clock::now() < until) {
-    for (int i = 0; i < 64; ++i) last = kernel.set("stream", payload).seqno;
+    for (int i = 0; i < 64; ++i) last = kernel.publish("stream", payload);
     written += 64;
   }
   Throughput result;

@@ -99,18 +99,11 @@ std::string Kernel::name() const { return impl_->name; }
 const Options& Kernel::options() const { return impl_->options; }
 
 Tuple Kernel::set(std::string_view key, std::string data, const WriteOptions& options) {
-  bool backedUp = false;
-  auto tuple = impl_->mutate([&](TupleSpace& s, Replication& r) {
-    auto stored = s.set(key, std::move(data), options);
-    backedUp = r.outboxBytes() >= Impl::kWriterWaitAbove;
-    return stored;
-  });
-  impl_->noteExpiry(*tuple);
-  // A writer that outruns its subscribers (updates have started to wait in
-  // the outbox) waits, a bounded time, for them to catch up, rather than
-  // produce values that would be coalesced (Impl::awaitOutbox).
-  if (backedUp && !onKernelThread()) impl_->awaitOutbox();
-  return *tuple;
+  return *impl_->setOwn(key, std::move(data), options);
+}
+
+std::uint64_t Kernel::publish(std::string_view key, std::string data, const WriteOptions& options) {
+  return impl_->setOwn(key, std::move(data), options)->seqno;
 }
 
 namespace {

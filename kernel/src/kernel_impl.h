@@ -63,14 +63,14 @@ struct Kernel::Impl {
   Replication replication GUARDED_BY(mu);
   bool drainScheduled GUARDED_BY(mu) = false;
   bool flushScheduled GUARDED_BY(mu) = false;
-  bool retryArmed GUARDED_BY(mu) = false;             // retryTimer armed or posted
-  bool networkStopped GUARDED_BY(mu) = false;         // no retry timer after stopNetwork
-  mutable int waiters GUARDED_BY(mu) = 0;             // threads blocked in get(…, wait)
-  int outboxWaiters GUARDED_BY(mu) = 0;               // writers in awaitOutbox
+  bool retryArmed GUARDED_BY(mu) = false;      // retryTimer armed or posted
+  bool networkStopped GUARDED_BY(mu) = false;  // no retry timer after stopNetwork
+  mutable int waiters GUARDED_BY(mu) = 0;      // threads blocked in get(…, wait)
+  int outboxWaiters GUARDED_BY(mu) = 0;        // writers in awaitOutbox
   // A writer's wait ran out without the outbox draining: a subscriber does
   // not keep up, and writers do not wait again until the outbox drained.
   bool outboxLagging GUARDED_BY(mu) = false;
-  std::uint64_t outboxTaken GUARDED_BY(mu) = 0;  // entries flush took: progress
+  std::uint64_t outboxTaken GUARDED_BY(mu) = 0;       // entries flush took: progress
   std::vector<PeerInfo> peerSnapshot GUARDED_BY(mu);  // what peers() returns
   std::string publishedSubscribers GUARDED_BY(mu);
   WriteGate writeGate GUARDED_BY(mu);
@@ -105,6 +105,9 @@ struct Kernel::Impl {
   std::string quitReason GUARDED_BY(quitMu);
 
   // --- kernel_impl.cpp ---
+  // Kernel::set and Kernel::publish of an own tuple: the stored tuple.
+  TuplePtr setOwn(std::string_view key, std::string data, const WriteOptions& writeOptions)
+      EXCLUDES(mu);
   void publishSpecialTuples() EXCLUDES(mu);
   void requestQuit(std::string reason) EXCLUDES(quitMu);
   // A callback, timer function, posted function or completion threw.
