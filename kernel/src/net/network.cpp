@@ -43,9 +43,6 @@ constexpr std::size_t kMaxHeldFrames = 1024;
 // How many liveness times a silent peer whose host still acknowledges our
 // bytes is given (see pingLoop).
 constexpr int kSlowPeerGrace = 4;
-// Routes quiet for this long after a change of the membership: the join has
-// converged, links may be pruned (see pruneLinks).
-constexpr std::chrono::milliseconds kRoutesQuiet{500};
 
 }  // namespace
 
@@ -177,10 +174,6 @@ class Network::Impl final : public LinkHandler {
   std::function<void()> closed_;  // after stop(): runs once no link is left
   bool pruneArmed_ = false;
   SteadyClock::time_point routesChangedAt_;  // the last recompute that changed a route
-  // Routes have been quiet for kRoutesQuiet since the membership last
-  // changed: the join converged, and pruning (whose own route changes do
-  // not count) may go on.
-  bool routesSettled_ = false;
   bool dialsPending_ = false;
   SteadyClock::time_point dialsFirstAsked_;
   Throttle recomputeThrottle_{io_}, advertThrottle_{io_};
@@ -224,10 +217,7 @@ RoutingTable::Config Network::Impl::tableConfig(const NetworkConfig& config, Pei
 Discovery::Events Network::Impl::discoveryEvents() {
   Discovery::Events e;
   e.onNewPeer = [this](PeisId) { scheduleDials(); };
-  e.onMembershipChanged = [this] {
-    routesSettled_ = false;
-    schedulePrune();
-  };
+  e.onMembershipChanged = [this] { schedulePrune(); };
   e.onCollision = [this](std::uint64_t other) { collision(other); };
   e.onPeriod = [this] {
     evaluateDials();
@@ -933,8 +923,7 @@ void Network::Impl::armPrune(SteadyClock::time_point at) {
     if (ec || stopped_) return;
     // Settled: no membership change, no route change and no new discovered
     // link for kLinkGrace.
-    auto settled = discovery_.membershipChangedAt();
-    if (!routesSettled_) settled = std::max(settled, routesChangedAt_ + kRoutesQuiet - kLinkGrace);
+    auto settled = std::max(discovery_.membershipChangedAt(), routesChangedAt_);
     for (const auto& link : links_) {
       if (link->established_ && link->explicitIndex_ < 0) {
         settled = std::max(settled, link->establishedAt_);
@@ -963,9 +952,10 @@ void Network::Impl::pruneLinks() {
   // requests and re-adverts it needs to find them again (a join of 200 PEIS
   // that took long pruned hundreds of links while it converged, and took
   // several times longer for it).
-  if (config_.tool || now - discovery_.membershipChangedAt() < kLinkGrace) return;
-  if (!routesSettled_ && now - routesChangedAt_ < kRoutesQuiet) return;
-  routesSettled_ = true;
+  if (config_.tool || now - discovery_.membershipChangedAt() < kLinkGrace ||
+      now - routesChangedAt_ < kLinkGrace) {
+    return;
+  }
   const auto ids = discovery_.sortedIds();
   auto links = links_;
   for (const auto& link : links) {
