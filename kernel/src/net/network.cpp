@@ -173,7 +173,6 @@ class Network::Impl final : public LinkHandler {
   std::optional<SteadyClock::time_point> holdArmed_;
   std::function<void()> closed_;  // after stop(): runs once no link is left
   bool pruneArmed_ = false;
-  SteadyClock::time_point routesChangedAt_;  // the last recompute that changed a route
   bool dialsPending_ = false;
   SteadyClock::time_point dialsFirstAsked_;
   Throttle recomputeThrottle_{io_}, advertThrottle_{io_};
@@ -650,9 +649,6 @@ void Network::Impl::recompute() {
     return;
   }
   const auto changes = table_.recompute(SteadyClock::now());
-  if (changes.topology || !changes.up.empty() || !changes.down.empty()) {
-    routesChangedAt_ = SteadyClock::now();
-  }
   afterTable();
   retryHeld();
   for (const PeisId id : changes.down) {
@@ -921,9 +917,8 @@ void Network::Impl::armPrune(SteadyClock::time_point at) {
   pruneTimer_.async_wait([this](const boost::system::error_code& ec) {
     pruneArmed_ = false;
     if (ec || stopped_) return;
-    // Settled: no membership change, no route change and no new discovered
-    // link for kLinkGrace.
-    auto settled = std::max(discovery_.membershipChangedAt(), routesChangedAt_);
+    // Settled: no membership change and no new discovered link for kLinkGrace.
+    auto settled = discovery_.membershipChangedAt();
     for (const auto& link : links_) {
       if (link->established_ && link->explicitIndex_ < 0) {
         settled = std::max(settled, link->establishedAt_);
@@ -947,15 +942,7 @@ void Network::Impl::pruneLinks() {
   const auto now = SteadyClock::now();
   // Only once the membership has settled, so both ends agree on the overlay;
   // a tool, short-lived, keeps the few links it has.
-  // Nor while routes still change: a join that has not converged yet would
-  // lose the routes through every pruned link, and with them the seqno
-  // requests and re-adverts it needs to find them again (a join of 200 PEIS
-  // that took long pruned hundreds of links while it converged, and took
-  // several times longer for it).
-  if (config_.tool || now - discovery_.membershipChangedAt() < kLinkGrace ||
-      now - routesChangedAt_ < kLinkGrace) {
-    return;
-  }
+  if (config_.tool || now - discovery_.membershipChangedAt() < kLinkGrace) return;
   const auto ids = discovery_.sortedIds();
   auto links = links_;
   for (const auto& link : links) {
