@@ -146,7 +146,7 @@ get_until light.currState on
 grep -q 'light -> on' "$work/lamp.out" || fail "the lamp's actuator did not run"
 
 "$peis" set "$lamp_id.kernel.do-quit" yes --timeout 30 "${common[@]}" 2>>"$work/peis.err" ||
-  fail "peis set $lamp_id.kernel.do-quit yes failed"
+  fail "peis set $lamp_id.kernel.do-quit yes failed: $(tail -3 "$work/peis.err")"
 deadline=$((SECONDS + 30))
 while kill -0 "$lamp_pid" 2>/dev/null && [ $SECONDS -lt $deadline ]; do
   sleep 0.1 # polling the condition (has it exited?) with a deadline
