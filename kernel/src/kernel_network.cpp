@@ -118,7 +118,7 @@ void Kernel::Impl::onPeerDown(PeisId peer) {
     replication.onPeerDown(peer);
     replication.outbox().drop(peer);  // nothing waits for a PEIS that is gone
     noteOutboxDrained();
-    refreshSubscribersTuple();        // the membership tuples follow with onTopology
+    refreshSubscribersTuple();  // the membership tuples follow with onTopology
     afterMutation();
   }
   remoteWrites.failOwner(
@@ -140,7 +140,12 @@ void Kernel::Impl::holdWrite(const WriteGate& gate, PeisId source, wire::Write&&
   WriteDecision decide = [this, source, held, decided,
                           gateTimer](const std::optional<Error>& refusal) {
     if (decided->exchange(true)) return;
-    asio::post(io, [this, source, held, refusal, gateTimer] {
+    // A deep copy: a copied std::runtime_error shares its message with the
+    // gate's (a reference count ThreadSanitizer cannot see), which the
+    // gate's thread may destroy while the kernel thread reads it.
+    std::optional<Error> own;
+    if (refusal) own.emplace(refusal->code(), std::string(refusal->what()));
+    asio::post(io, [this, source, held, refusal = std::move(own), gateTimer] {
       gateTimer->cancel();
       MutexLock lock(mu);
       if (refusal) {

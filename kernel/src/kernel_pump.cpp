@@ -28,7 +28,8 @@ constexpr std::size_t kMaxWaitingBytes = 16u << 20;
 void Kernel::Impl::afterMutation(DirectSend* direct) {
   // A handler of received messages delivers and sends itself once it has
   // let go of the lock (Impl::onMessages); anything else posts.
-  const bool handlerRuns = drainInline && std::this_thread::get_id() == threadId;
+  // (drainInline is the kernel thread's own: read only there.)
+  const bool handlerRuns = std::this_thread::get_id() == threadId && drainInline;
   if (!flushScheduled && replication.outbox().hasReady() && !(direct && sendDirect(*direct))) {
     flushScheduled = true;
     if (handlerRuns) {
