@@ -87,9 +87,12 @@ void GoalTupleConfigurator::publish() {
 void GoalTupleConfigurator::post(const std::vector<std::string>& needs, Done done) {
   std::vector<NeedParts> parts;
   for (const auto& need : needs) {
+    // A need without a consumer (`image(astrid)`: the information must be
+    // produced) is posted too; there is no meta tuple to watch for it.
     const auto p = parseNeed(need);
-    if (!p) return done("'" + need + "' is not INFORMATION@PEIS.KEY");
-    parts.push_back(*p);
+    if (p) parts.push_back(*p);
+    if (!p && need.find('@') != std::string::npos)
+      return done("'" + need + "' is not INFORMATION@PEIS.KEY");
     if (std::find(posted_.begin(), posted_.end(), need) == posted_.end()) posted_.push_back(need);
   }
   publish();

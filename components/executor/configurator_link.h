@@ -51,7 +51,9 @@ class StaticConfigurator : public ConfiguratorLink {
 // executor's own `config.goal.<name>` tuple, one goal per line, and withdrawn
 // by rewriting it without them (empty when none is left). A post counts as
 // deployed once every need's consumer meta tuple points somewhere (the
-// configurator's deployment wrote it); it fails after `deadline`.
+// configurator's deployment wrote it); it fails after `deadline`. A need
+// without a consumer (`image(astrid)`: only produced) is posted and not
+// waited for: no meta tuple says when it is.
 class GoalTupleConfigurator : public ConfiguratorLink {
  public:
   GoalTupleConfigurator(Kernel& kernel, std::string goalKey,

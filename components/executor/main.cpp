@@ -1,9 +1,11 @@
 // peis-executor: the plan executor PEIS-component. Runs a plan (from
-// --plan or its `plan` tuple) with the PlanRunner state machine: deploys
-// each step's configuration needs, writes the step's ExecGoal to the PEIS
-// that executes it, follows that PEIS's ExecStatus, withdraws the needs, and
-// on a failure replans (retrying the remaining steps; the task planner takes
-// this over once peis::meta links here). docs/components/executor.md.
+// --plan or its `plan` tuple, or planned by the meta-level's task planner
+// for a task written to its `task` tuple) with the PlanRunner state machine:
+// deploys each step's configuration needs, writes the step's ExecGoal to the
+// PEIS that executes it, follows that PEIS's ExecStatus, withdraws the needs,
+// and on a failure replans (from the state the steps done so far reached,
+// with --domain and --problem; else it retries the remaining steps).
+// docs/components/executor.md.
 #include <peis/component.h>
 
 #include <iostream>
@@ -14,8 +16,10 @@
 #include "execution/exec_server.h"
 #include "execution/program_options.h"
 #include "executor_descriptor.h"
+#include "peis/error.h"
 #include "plan_runner.h"
 #include "plan_text.h"
+#include "task_planning.h"
 
 namespace {
 
@@ -38,13 +42,21 @@ Options:
                       the needs as this PEIS's config.goal.<name> tuple for the
                       meta-level's configurator; deployed when the consumers'
                       meta tuples point somewhere)
+  --domain FILE       the task domain (meta/domains/home.domain.yaml): tasks
+                      written to the `task` tuple are planned with it, and a
+                      failure is replanned from the state reached
+  --problem FILE      the objects and the initial state the tasks start from
+                      (its goal is not used)
+  --task GOALS        a task to plan and run at start, e.g.
+                      "awake(johanna), at(pippi, sofa)" (needs --domain, --problem)
   --replans N         failures retried before giving up (default 2)
   --deploy-timeout S  seconds for a step's configuration (default 15)
   --step-timeout S    seconds for a step's action (default 600)
   --exit              exit when the plan ends: 0 on success, 1 on failure
   --help              this text
 
-Tuples: plan (in), plan.status (running / success / failed: CAUSE), plan.step.
+Tuples: plan (in), task (in: goal literals), task.plan (the plan found),
+plan.status (running / success / failed: CAUSE), plan.step.
 )usage";
 
 struct Settings {
@@ -55,6 +67,7 @@ struct Settings {
   double deployTimeout = 15, stepTimeout = 600;
   bool exitWhenDone = false;
   std::string configurator = "static";
+  std::string domainPath, problemPath, task;
 };
 
 bool takeOption(Settings& s, const std::string& name, const std::string& value) {
@@ -71,6 +84,13 @@ bool takeOption(Settings& s, const std::string& name, const std::string& value) 
     if (value != "static" && value != "goal-tuples")
       throw std::invalid_argument("--configurator takes static or goal-tuples");
     s.configurator = value;
+  } else if (name == "--domain") {
+    s.domainPath = value;
+  } else if (name == "--problem") {
+    s.problemPath = value;
+  } else if (name == "--task") {
+    peis::executor::parseTask(value);  // throws on a malformed task
+    s.task = value;
   } else if (name == "--replans" || name == "--deploy-timeout" || name == "--step-timeout") {
     const auto number = peis::exec::parseNumber(value);
     if (!number || *number < 0) throw std::invalid_argument(name + " takes a non-negative number");
@@ -94,6 +114,10 @@ struct Shell {
   std::unique_ptr<peis::executor::ConfiguratorLink> configurator;
   std::map<peis::PeisId, peis::CallbackHandle> watched;  // ExecStatus callbacks by PEIS
   int exitCode = -1;
+  // With --domain and --problem: the task being run (its goal literals).
+  std::optional<peis::meta::task::Domain> domain;
+  std::optional<peis::meta::task::Problem> problem;
+  std::vector<peis::meta::task::Literal> goal;
 
   void log(const std::string& line) { std::cerr << "executor: " << line << std::endl; }
 
@@ -180,9 +204,23 @@ struct Shell {
         break;
       }
       case Command::Kind::RequestPlan: {
-        // No task planner linked yet: the new plan is the rest of the current
-        // one, from the failed step (a retry). peis::meta's planTask replaces this.
         log("replanning after: " + c.text);
+        if (domain && problem && !goal.empty()) {
+          // The task planner, from the state the steps done so far reached.
+          kernel.post([this] {
+            try {
+              const auto planned =
+                  peis::executor::planFrom(*domain, *problem, goal, runner.completed());
+              log(planned.found ? "new plan: " + planned.text : "no plan: " + planned.text);
+              if (planned.found) kernel.set("task.plan", planned.text);
+              apply(planned.found ? runner.onPlan(planned.steps) : runner.onNoPlan(planned.text));
+            } catch (const std::exception& e) {
+              apply(runner.onNoPlan(e.what()));
+            }
+          });
+          break;
+        }
+        // A plan given as it is: the new plan is its rest, from the failed step (a retry).
         std::vector<peis::executor::PlanStep> rest(
             runner.plan().begin() + static_cast<long>(runner.stepIndex()), runner.plan().end());
         kernel.post([this, rest] { apply(runner.onPlan(rest)); });
@@ -204,7 +242,27 @@ struct Shell {
     return out;
   }
 
+  void startTask(const std::string& text) {
+    try {
+      goal = peis::executor::parseTask(text);
+      const auto planned = peis::executor::planFrom(*domain, *problem, goal);
+      if (!planned.found) {
+        log("task " + text + ": no plan: " + planned.text);
+        kernel.set("task.plan", "");
+        kernel.set("plan.status", "failed: no plan for " + text + ": " + planned.text);
+        return;
+      }
+      log("task " + text + ": plan " + planned.text);
+      kernel.set("task.plan", planned.text);
+      apply(runner.start(planned.steps));
+    } catch (const std::exception& e) {
+      log(std::string("task refused: ") + e.what());
+      kernel.set("plan.status", std::string("failed: ") + e.what());
+    }
+  }
+
   void startPlan(const std::string& text) {
+    goal.clear();
     try {
       auto plan = peis::executor::parsePlan(text);
       log("running plan: " + peis::executor::formatPlan(plan));
@@ -229,10 +287,26 @@ int main(int argc, char** argv) {
                                           {"--exit"});
       code >= 0)
     return code;
+  if (!settings.task.empty() && (settings.domainPath.empty() || settings.problemPath.empty())) {
+    std::cerr << "peis-executor: --task needs --domain and --problem (see --help)\n";
+    return 2;
+  }
   peis::Component component(kernel, "executor",
                             peis::Descriptor::fromYaml(kExecutorDescriptor, "executor.yaml"));
-  Shell shell{kernel,  settings, peis::executor::PlanRunner(settings.actions, settings.replans),
-              nullptr, {},       -1};
+  Shell shell{
+      kernel,       settings,     peis::executor::PlanRunner(settings.actions, settings.replans),
+      nullptr,      {},           -1,
+      std::nullopt, std::nullopt, {}};
+  try {
+    if (!settings.domainPath.empty())
+      shell.domain = peis::meta::task::Domain::fromFile(settings.domainPath);
+    if (!settings.problemPath.empty())
+      shell.problem = peis::meta::task::Problem::fromFile(settings.problemPath);
+  } catch (const peis::Error& e) {
+    std::cerr << "peis-executor: " << e.what() << "\n";
+    return 1;
+  }
+  const bool tasks = shell.domain && shell.problem;
   if (settings.configurator == "goal-tuples")
     shell.configurator = std::make_unique<peis::executor::GoalTupleConfigurator>(
         kernel, "config.goal." + kernel.name(),
@@ -242,20 +316,29 @@ int main(int argc, char** argv) {
         std::make_unique<peis::executor::StaticConfigurator>(kernel, settings.links);
   // A plan written to `plan` (locally or remotely) starts a run; a malformed
   // one is refused at the gate.
-  kernel.setWriteGate([](const peis::Tuple& t, peis::PeisId, const peis::WriteDecision& decide) {
-    if (t.key != "plan") return false;
-    try {
-      peis::executor::parsePlan(t.data);
-      return false;
-    } catch (const std::invalid_argument& e) {
-      decide(peis::Error(peis::ErrorCode::Refused, e.what()));
-      return true;
-    }
-  });
+  kernel.setWriteGate(
+      [tasks](const peis::Tuple& t, peis::PeisId, const peis::WriteDecision& decide) {
+        if (t.key != "plan" && t.key != "task") return false;
+        try {
+          if (t.key == "plan") peis::executor::parsePlan(t.data);
+          if (t.key == "task" && !tasks)
+            throw std::invalid_argument(
+                "this executor plans no tasks (it has no --domain and --problem)");
+          if (t.key == "task") peis::executor::parseTask(t.data);
+          return false;
+        } catch (const std::invalid_argument& e) {
+          decide(peis::Error(peis::ErrorCode::Refused, e.what()));
+          return true;
+        }
+      });
   kernel.onChange(peis::Pattern::exact(kernel.id(), "plan"),
                   [&shell](const peis::Tuple& t) { shell.startPlan(t.data); });
+  if (tasks)
+    kernel.onChange(peis::Pattern::exact(kernel.id(), "task"),
+                    [&shell](const peis::Tuple& t) { shell.startTask(t.data); });
   component.start();
   if (!settings.plan.empty()) kernel.set("plan", settings.plan);
+  if (!settings.task.empty()) kernel.set("task", settings.task);
   kernel.run();
   return shell.exitCode < 0 ? 0 : shell.exitCode;
 }

@@ -201,7 +201,6 @@ PlanResult ConfigurationPlanner::plan(const Goals& goals, const PlanOptions& opt
     result.stats.relevantInstances += static_cast<std::int64_t>(part.insts.size());
   }
   result.stats.parts = static_cast<std::int64_t>(parts.size());
-
   // A valid configuration for every part first, then the optimum.
   std::vector<detail::PartSearch> searches;
   searches.reserve(parts.size());
@@ -218,6 +217,7 @@ PlanResult ConfigurationPlanner::plan(const Goals& goals, const PlanOptions& opt
   if (!options.firstSolutionOnly) {
     for (std::size_t p = 0; p < parts.size(); ++p) {
       solutions[p].nodes = 0;
+      solutions[p] = searches[p].polish(std::move(solutions[p]), limits);
       solutions[p] = searches[p].improve(std::move(solutions[p]), limits);
       result.stats.nodes += solutions[p].nodes;
     }

@@ -1,106 +1,46 @@
-// Branch and bound over the producer of each required slot (see search.h).
+// A part's search: its relaxed task and estimates, and the first valid
+// configuration by a depth-first dive (see search.h).
 #include "planner/search.h"
 
 #include <algorithm>
+#include <cmath>
 #include <functional>
 #include <numeric>
 #include <queue>
 
+#include "planner/branch_and_bound.h"
+#include "planner/part_state.h"
+
 namespace peis::meta::detail {
 namespace {
+
 constexpr double kEpsilon = 1e-9;
+
+// The largest u with every cost an integer multiple of u (a denominator up
+// to 1000, a common one up to 10^6), or 0 when there is none.
+double costUnit(const std::vector<double>& costs) {
+  constexpr double kTolerance = 1e-9;
+  auto integral = [&](double x) {
+    return std::abs(x - std::round(x)) <= kTolerance * std::max(1.0, std::abs(x));
+  };
+  long long common = 1;  // the least common denominator
+  for (double c : costs) {
+    long long d = 1;
+    while (d <= 1000 && !integral(c * static_cast<double>(d))) ++d;
+    if (d > 1000) return 0;
+    common = std::lcm(common, d);
+    if (common > 1000000) return 0;
+  }
+  long long divisor = 0;
+  for (double c : costs) {
+    const double scaled = c * static_cast<double>(common);
+    if (std::abs(scaled) > 1e15) return 0;
+    divisor = std::gcd(divisor, static_cast<long long>(std::llround(scaled)));
+  }
+  return divisor > 0 ? static_cast<double>(divisor) / static_cast<double>(common) : 0;
 }
 
-struct PartSearch::State {
-  const Part& part;
-  std::vector<char> active;
-  std::vector<int> assigned;  // option per slot, -1 none
-  std::vector<int> required;  // how many active users (or the goal) need it
-  std::vector<int> banned;    // reasons an instance may not be activated
-  double g = 0;
-  std::vector<int> mark, seen;  // for the cycle check
-  int epoch = 0;
-  bool dag = false;  // no cycle is possible at all: skip the check
-
-  explicit State(const Part& p)
-      : part(p),
-        active(p.insts.size(), 0),
-        assigned(p.slots.size(), -1),
-        required(p.slots.size(), 0),
-        banned(p.insts.size(), 0),
-        mark(p.insts.size(), 0),
-        seen(p.insts.size(), 0) {
-    for (int s = 0; s < static_cast<int>(p.slots.size()); ++s) {
-      if (p.slots[s].goal) require(s, +1);
-    }
-  }
-
-  void require(int s, int delta) {
-    const bool before = required[s] > 0;
-    required[s] += delta;
-    const bool after = required[s] > 0;
-    if (before == after) return;
-    for (int c : part.slots[s].clashes) {
-      for (int u : part.slots[c].users) banned[u] += after ? 1 : -1;
-    }
-  }
-
-  bool viable(int inst) const { return active[inst] || banned[inst] == 0; }
-
-  // True when making `producer` fill `slot` closes a cycle: the producer
-  // depends (through assigned slots) on an active user of the slot.
-  bool closesCycle(int slot, int producer) {
-    if (dag) return false;
-    for (int t : part.insts[producer].slots) {
-      if (t == slot) return true;  // it would feed itself
-    }
-    ++epoch;
-    for (int u : part.slots[slot].users) {
-      if (active[u]) mark[u] = epoch;
-    }
-    if (mark[producer] == epoch) return true;
-    std::vector<int> stack{producer};
-    seen[producer] = epoch;
-    while (!stack.empty()) {
-      const int i = stack.back();
-      stack.pop_back();
-      for (int t : part.insts[i].slots) {
-        if (assigned[t] < 0) continue;
-        const int q = part.slots[t].options[assigned[t]].inst;
-        if (mark[q] == epoch) return true;
-        if (seen[q] != epoch) {
-          seen[q] = epoch;
-          stack.push_back(q);
-        }
-      }
-    }
-    return false;
-  }
-
-  // Returns whether the producer was activated by this step (for undo).
-  bool apply(int s, int k) {
-    const auto& o = part.slots[s].options[k];
-    assigned[s] = k;
-    g += o.link;
-    if (active[o.inst]) return false;
-    active[o.inst] = 1;
-    g += part.insts[o.inst].cost;
-    for (int e : part.insts[o.inst].exclusive) ++banned[e];
-    for (int t : part.insts[o.inst].slots) require(t, +1);
-    return true;
-  }
-
-  void undo(int s, int k, bool activated) {
-    const auto& o = part.slots[s].options[k];
-    assigned[s] = -1;
-    g -= o.link;
-    if (!activated) return;
-    active[o.inst] = 0;
-    g -= part.insts[o.inst].cost;
-    for (int e : part.insts[o.inst].exclusive) --banned[e];
-    for (int t : part.insts[o.inst].slots) require(t, -1);
-  }
-};
+}  // namespace
 
 PartSearch::PartSearch(const Part& part) : part_(part) {
   const int slots = static_cast<int>(part.slots.size());
@@ -129,6 +69,17 @@ PartSearch::PartSearch(const Part& part) : part_(part) {
       if (colour[i] == 0) visit(i);
     }
     dag_ = !cyclic;
+  }
+  // Costs that are all multiples of one unit (integers, tenths) make every
+  // configuration's cost one too: a better one is at least a unit cheaper.
+  {
+    std::vector<double> all;
+    for (const auto& inst : part.insts) all.push_back(inst.cost);
+    for (const auto& slot : part.slots) {
+      for (const auto& o : slot.options) all.push_back(o.link);
+    }
+    const double unit = costUnit(all);
+    slack_ = unit > 0 ? unit * (1 - 1e-6) : kEpsilon;
   }
   // h_add of each instance (generalised Dijkstra), to try cheap producers first.
   estimate_.assign(insts, kInfinity);
@@ -160,38 +111,23 @@ PartSearch::PartSearch(const Part& part) : part_(part) {
   }
 }
 
-namespace {
+PartSolution PartSearch::first(const SearchLimits& limits) { return dive(limits, nullptr); }
 
-struct Limits {
-  const SearchLimits& limits;
-  std::int64_t* nodes;
-  bool stopped = false;
-  bool hit() {
-    if (stopped) return true;
-    if (limits.nodeLimit > 0 && *nodes >= limits.nodeLimit) stopped = true;
-    if (limits.deadline && (*nodes & 15) == 0 &&
-        std::chrono::steady_clock::now() >= *limits.deadline) {
-      stopped = true;
-    }
-    return stopped;
-  }
-};
-
-}  // namespace
-
-PartSolution PartSearch::first(const SearchLimits& limits) {
+PartSolution PartSearch::dive(const SearchLimits& limits, const std::vector<double>* guide) {
   PartSolution result;
-  State state(part_);
+  PartState state(part_);
   state.dag = dag_;
-  Limits stop{limits, &result.nodes};
-  // Options in order: the warm start's, then cheapest estimated.
+  Stopper stop{limits, &result.nodes};
+  // Options in order: the warm start's, then cheapest estimated (or by the
+  // guide's value of their link action, the estimate breaking ties).
   auto order = [&](int s) {
     const auto& slot = part_.slots[s];
     std::vector<int> ks(slot.options.size());
     std::iota(ks.begin(), ks.end(), 0);
     auto score = [&](int k) {
       const auto& o = slot.options[k];
-      return o.link + (state.active[o.inst] ? 0.0 : estimate_[o.inst]);
+      const double estimate = o.link + (state.active[o.inst] ? 0.0 : estimate_[o.inst]);
+      return guide ? (*guide)[linkBase_[s] + k] + 1e-6 * estimate : estimate;
     };
     std::stable_sort(ks.begin(), ks.end(), [&](int a, int b) {
       const bool wa = a == slot.warmOption, wb = b == slot.warmOption;
@@ -234,194 +170,7 @@ PartSolution PartSearch::first(const SearchLimits& limits) {
 }
 
 PartSolution PartSearch::improve(PartSolution best, const SearchLimits& limits) {
-  State state(part_);
-  state.dag = dag_;
-  LmCut lmcut(task_);
-  using Landmark = LmCut::Landmark;
-  std::int64_t nodes = 0;
-  Limits stop{limits, &nodes};
-  const int slotCount = static_cast<int>(part_.slots.size());
-  std::vector<double> costs(task_.actions.size()), residual(task_.actions.size());
-  std::vector<int> goal;
-  for (int s = 0; s < slotCount; ++s) {
-    if (part_.slots[s].goal) goal.push_back(s);
-  }
-  const std::vector<char> none;
-  // The remaining task's action costs: paid actions are free, actions that
-  // can no longer be part of this branch are unavailable.
-  auto fillCosts = [&] {
-    const int insts = static_cast<int>(part_.insts.size());
-    for (int i = 0; i < insts; ++i) {
-      costs[i] = state.active[i] ? 0.0 : state.viable(i) ? part_.insts[i].cost : kInfinity;
-    }
-    for (int s = 0; s < slotCount; ++s) {
-      const auto& slot = part_.slots[s];
-      for (int k = 0; k < static_cast<int>(slot.options.size()); ++k) {
-        double c;
-        if (state.assigned[s] >= 0) {
-          c = state.assigned[s] == k ? 0.0 : kInfinity;
-        } else {
-          c = state.viable(slot.options[k].inst) ? slot.options[k].link : kInfinity;
-        }
-        costs[linkBase_[s] + k] = c;
-      }
-    }
-  };
-  // Incremental LM-cut: the parent's landmarks that no decision paid for
-  // still count (dead when all their actions became unavailable); new cuts
-  // are found on the costs they leave.
-  auto bound = [&](const std::vector<Landmark>& inherited, std::vector<Landmark>& kept,
-                   double limit) {
-    fillCosts();
-    kept.clear();
-    double h = 0;
-    residual = costs;
-    for (const auto& l : inherited) {
-      bool hit = false, dead = true;
-      for (int a : l.actions) {
-        hit = hit || costs[a] == 0;
-        dead = dead && costs[a] == kInfinity;
-      }
-      if (hit) continue;
-      if (dead) return kInfinity;
-      h += l.cost;
-      for (int a : l.actions) {
-        if (residual[a] != kInfinity) residual[a] = std::max(0.0, residual[a] - l.cost);
-      }
-      kept.push_back(l);
-      if (h >= limit) return h;
-    }
-    return h + lmcut.compute(residual, none, goal, limit - h, &kept);
-  };
-  double incumbent = best.found ? best.cost : kInfinity;
-  std::vector<Landmark> rootLandmarks;
-  const double rootBound = bound({}, rootLandmarks, incumbent);
-  best.lowerBound = std::min(rootBound, incumbent);
-  if (rootBound == kInfinity) {  // no configuration at all
-    best.optimal = !best.found;
-    best.found = false;
-    return best;
-  }
-  auto viableCount = [&](int s, int* only) {
-    int count = 0;
-    for (int k = 0; k < static_cast<int>(part_.slots[s].options.size()); ++k) {
-      const int p = part_.slots[s].options[k].inst;
-      if (state.viable(p) && !state.closesCycle(s, p)) {
-        ++count;
-        *only = k;
-      }
-    }
-    return count;
-  };
-  // Assignments that need no choice: a slot with one possible producer; and,
-  // when no cycle is possible, a slot whose cheapest link comes from a
-  // producer already running (using it can never cost more).
-  struct Step {
-    int slot, option;
-    bool activated;
-  };
-  auto propagate = [&](std::vector<Step>& trail) {
-    bool changed = true;
-    while (changed) {
-      changed = false;
-      for (int s = 0; s < slotCount; ++s) {
-        if (state.required[s] == 0 || state.assigned[s] >= 0) continue;
-        const auto& slot = part_.slots[s];
-        int only = -1;
-        const int count = viableCount(s, &only);
-        if (count == 0) return false;
-        int choice = count == 1 ? only : -1;
-        if (choice < 0 && dag_) {
-          double cheapest = kInfinity;
-          int activeBest = -1;
-          double activeLink = kInfinity;
-          for (int k = 0; k < static_cast<int>(slot.options.size()); ++k) {
-            const auto& o = slot.options[k];
-            if (!state.viable(o.inst)) continue;
-            cheapest = std::min(cheapest, o.link);
-            if (state.active[o.inst] && o.link < activeLink) {
-              activeLink = o.link;
-              activeBest = k;
-            }
-          }
-          if (activeBest >= 0 && activeLink <= cheapest) choice = activeBest;
-        }
-        if (choice < 0) continue;
-        trail.push_back({s, choice, state.apply(s, choice)});
-        changed = true;
-      }
-    }
-    return true;
-  };
-  auto unwind = [&](std::vector<Step>& trail) {
-    for (auto it = trail.rbegin(); it != trail.rend(); ++it)
-      state.undo(it->slot, it->option, it->activated);
-    trail.clear();
-  };
-  auto record = [&] {
-    incumbent = state.g;
-    best.found = true;
-    best.cost = state.g;
-    best.chosen.assign(slotCount, -1);
-    for (int s = 0; s < slotCount; ++s) {
-      if (state.required[s] > 0) best.chosen[s] = state.assigned[s];
-    }
-    best.active = state.active;
-  };
-  std::function<void(const std::vector<Landmark>&)> dfs = [&](const std::vector<Landmark>& parent) {
-    ++nodes;
-    if (stop.hit()) return;
-    std::vector<Step> trail;
-    if (!propagate(trail) || state.g >= incumbent - kEpsilon) {
-      unwind(trail);
-      return;
-    }
-    // The most constrained open slot.
-    int pick = -1, fewest = 0;
-    for (int s = 0; s < slotCount; ++s) {
-      if (state.required[s] == 0 || state.assigned[s] >= 0) continue;
-      int only = -1;
-      const int count = viableCount(s, &only);
-      if (pick < 0 || count < fewest) {
-        pick = s;
-        fewest = count;
-      }
-    }
-    if (pick < 0) {
-      record();
-      unwind(trail);
-      return;
-    }
-    std::vector<Landmark> landmarks;
-    const double h = bound(parent, landmarks, incumbent - state.g - kEpsilon);
-    if (state.g + h >= incumbent - kEpsilon) {
-      unwind(trail);
-      return;
-    }
-    const auto& slot = part_.slots[pick];
-    std::vector<std::pair<double, int>> ks;
-    for (int k = 0; k < static_cast<int>(slot.options.size()); ++k) {
-      const auto& o = slot.options[k];
-      if (!state.viable(o.inst) || state.closesCycle(pick, o.inst)) continue;
-      ks.push_back({o.link + (state.active[o.inst] ? 0.0 : estimate_[o.inst]), k});
-    }
-    std::stable_sort(ks.begin(), ks.end(),
-                     [](const auto& a, const auto& b) { return a.first < b.first; });
-    for (const auto& [score, k] : ks) {
-      const bool activated = state.apply(pick, k);
-      dfs(landmarks);
-      state.undo(pick, k, activated);
-      if (stop.stopped) break;
-    }
-    unwind(trail);
-  };
-  dfs(rootLandmarks);
-  best.nodes += nodes;
-  if (!stop.stopped) {
-    best.optimal = true;
-    best.lowerBound = best.found ? best.cost : kInfinity;
-  }
-  return best;
+  return BranchAndBound(*this, limits).run(std::move(best));
 }
 
 }  // namespace peis::meta::detail

@@ -1,8 +1,8 @@
-// Branch and bound over one independent part of a ground problem: which
-// producer fills each required meta input. A greedy dive gives a valid
-// configuration first; depth-first branch and bound with the LM-cut bound then
-// proves the optimum (or stops at the deadline with a lower bound).
-// Internal to the planner.
+// The search over one independent part of a ground problem: which producer
+// fills each required meta input. A greedy dive gives a valid configuration
+// first, local search polishes it (local_search.cpp), branch and bound
+// (branch_and_bound.h) proves the optimum or stops at the limits with a
+// lower bound. Internal to the planner.
 #pragma once
 
 #include <chrono>
@@ -60,16 +60,23 @@ class PartSearch {
   // A valid configuration fast (greedy dive with backtracking); found=false
   // when none exists or the limits came first.
   PartSolution first(const SearchLimits& limits);
+  // A cheaper valid configuration near `start` by local moves
+  // (local_search.cpp); `start` itself when none is found or it is !found.
+  PartSolution polish(PartSolution start, const SearchLimits& limits);
   // Improves `incumbent` (which may be !found) to the optimum within limits.
   PartSolution improve(PartSolution incumbent, const SearchLimits& limits);
 
  private:
-  struct State;
+  friend class BranchAndBound;
+  // A depth-first dive with backtracking; options by estimate, or by
+  // `guide` (a value per link action of task_) when given.
+  PartSolution dive(const SearchLimits& limits, const std::vector<double>* guide);
   const Part& part_;
   RelaxedTask task_;
   std::vector<int> linkBase_;     // first link action of each slot
   std::vector<double> estimate_;  // h_add of each instance, for option order
   bool dag_ = false;              // no cycle of producers can form
+  double slack_ = 0;              // how much cheaper a better configuration is at least
 };
 
 }  // namespace peis::meta::detail

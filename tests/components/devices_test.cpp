@@ -119,6 +119,34 @@ TEST_CASE("the vacuum needs a position to clean and decides push or avoid from a
       30s));
 }
 
+TEST_CASE("the vacuum waits a while for the first position of a configured input",
+          "[integration]") {
+  Home home("vacuum-wait");
+  home.start(programPath("peis-sim-world"), {"--speed", "2"});
+  auto& vac = home.start(programPath("peis-vacuum"), {"--peis-name", "vacuum", "--base",
+                                                      "vacuum-base", "--position-wait", "3"});
+  const peis::PeisId vacuum = home.await("vacuum");
+  REQUIRE(vacuum != 0);
+  REQUIRE(home.await("world") != 0);
+  home.observer->subscribe(peis::Pattern("ExecStatus", vacuum));
+  // Configured, but nothing delivered: Clean runs, waiting, then fails.
+  REQUIRE(home.cli({"meta", "vacuum.mi-position", "referee.position"}) == 0);
+  auto goal = home.observer->set(vacuum, "ExecGoal", "Clean(living-room)");
+  auto status = finalStatus(home, vacuum, goal.seqno);
+  REQUIRE(status);
+  CHECK(status->cause == "no position: mi-position delivered none in time (--position-wait)");
+  // A position that arrives within the wait starts the cleaning.
+  goal = home.observer->set(vacuum, "ExecGoal", "Clean(living-room)");
+  peis::WriteOptions at;
+  at.ts_user = peis::systemNow();
+  home.observer->set("position", "1.0 1.6", at);
+  CHECK(waitFor([&] { return vac.err().find("vacuum: cleaning living-room") != std::string::npos; },
+                30s));
+  const auto running = home.observer->get(vacuum, "ExecStatus");
+  REQUIRE(running);
+  CHECK(running->data.rfind("running " + std::to_string(goal.seqno), 0) == 0);
+}
+
 TEST_CASE("a tiny plant reads the world's light through its sensor file", "[integration]") {
   Home home("sensors");
   peis::test::TempDir dir("sensors");
@@ -153,4 +181,41 @@ TEST_CASE("a tiny plant reads the world's light through its sensor file", "[inte
   const long seen = std::stol(out.substr(out.find("plant light ") + 12));
   CHECK(std::abs(seen - level) <= std::max(5L, level / 20));
   CHECK(out.find("plant tilt 0") != std::string::npos);  // asks the blind to close
+}
+
+TEST_CASE("a frozen sensor keeps its last reading until it thaws", "[fault]") {
+  Home home("freeze");
+  peis::test::TempDir dir("freeze");
+  const std::string file = dir.file("plant.sensors");
+  home.start(programPath("peis-sim-world"), {"--speed", "2"});
+  home.start(programPath("peis-sim-sensors"),
+             {"--peis-name", "sensors", "--light", "plant=" + file, "--lux-per-level", "2"});
+  const peis::PeisId world = home.await("world"), sensors = home.await("sensors");
+  REQUIRE(world != 0);
+  REQUIRE(sensors != 0);
+  auto level = [&]() -> long {
+    std::ifstream in(file);
+    std::string word;
+    long value = -1;
+    in >> word >> value;
+    return word == "light" ? value : -1;
+  };
+  home.observer->set(world, "physics.daylight", "40000");
+  const bool bright = waitFor([&] { return level() > 700; }, 30s);
+  INFO(home.describeAll());
+  REQUIRE(bright);
+  home.observer->set(sensors, "fault.freeze", "on");
+  const long stuck = level();
+  // Night falls; the frozen sensor still reads the sun.
+  home.observer->subscribe(peis::Pattern("physics.light.plant", world));
+  home.observer->set(world, "physics.daylight", "0");
+  REQUIRE(waitFor(
+      [&] {
+        const auto lux = home.observer->get(world, "physics.light.plant");
+        return lux && std::stod(lux->data) < 50;
+      },
+      30s));
+  CHECK_FALSE(waitFor([&] { return level() != stuck; }, 3s));
+  home.observer->set(sensors, "fault.freeze", "off");
+  CHECK(waitFor([&] { return level() >= 0 && level() < 50; }, 30s));
 }

@@ -127,3 +127,55 @@ TEST_CASE("with goal tuples, the executor posts a step's needs and waits for the
     return goal && goal->data.empty();
   }));
 }
+
+TEST_CASE("a task written to the executor is planned with the task planner and run",
+          "[integration]") {
+  Home home("exec-task");
+  peis::test::TempDir files("task");
+  const std::string problem = files.write("wakeup.yaml", R"yaml(problem: wakeup
+domain: home
+objects: {pippi: robot, bed: place, johanna: person, wakeup: message}
+init: ["at(pippi, bed)", "in(johanna, bed)", "asleep(johanna)", "wakes(wakeup)"]
+goal: ["awake(johanna)"]
+)yaml");
+  home.start(programPath("peis-sim-world"), {"--speed", "2"});
+  home.start(programPath("peis-talk"), {"--peis-name", "pippi-voice", "--base", "Pippi-base",
+                                        "--out-dir", files.path.string()});
+  auto& executor = home.start(
+      programPath("peis-executor"),
+      {"--peis-name", "emil", "--exit", "--action", "Talk=$1-voice:Talk($2)", "--domain",
+       std::string(PEIS_SOURCE_DIR) + "/meta/domains/home.domain.yaml", "--problem", problem});
+  const peis::PeisId world = home.await("world"), emil = home.await("emil");
+  REQUIRE(home.await("pippi-voice") != 0);
+  REQUIRE(emil != 0);
+  home.observer->subscribe(peis::Pattern("physics.speech", world));
+  home.observer->subscribe(peis::Pattern("task.plan", emil));
+  // Malformed tasks are refused at the gate.
+  CHECK_THROWS_AS(home.observer->set(emil, "task", "awake(johanna"), peis::Error);
+  home.observer->set(emil, "task", "awake(johanna)");
+  const auto exit = executor.wait(120s);
+  INFO(executor.describe() << home.describeAll());
+  REQUIRE(exit == 0);
+  CHECK(home.observer->get(emil, "task.plan")->data == "Talk(pippi, wakeup)");
+  // Pippi said it (the planner believes her at the bed; in the world she is
+  // not, so Johanna sleeps on: the plan's step ran, not the story).
+  CHECK(waitFor(
+      [&] {
+        const auto said = home.observer->get(world, "physics.speech");
+        return said && said->data.rfind("Pippi ", 0) == 0 &&
+               said->data.find("Johanna") != std::string::npos;
+      },
+      30s));
+}
+
+TEST_CASE("an executor without a domain refuses tasks", "[integration]") {
+  Home home("exec-notask");
+  home.start(programPath("peis-executor"), {"--peis-name", "plain"});
+  const peis::PeisId plain = home.await("plain");
+  REQUIRE(plain != 0);
+  CHECK_THROWS_WITH(home.observer->set(plain, "task", "awake(johanna)"),
+                    Catch::Matchers::Contains("plans no tasks"));
+  auto& bad = home.start(programPath("peis-executor"), {"--task", "awake(johanna)"});
+  CHECK(bad.wait(30s) == 2);
+  CHECK(bad.err().find("--task needs --domain and --problem") != std::string::npos);
+}

@@ -114,6 +114,71 @@ Problem smallRandom(std::mt19937& rng) {
   return p;
 }
 
+Problem smallShared(std::mt19937& rng) {
+  Problem p;
+  auto& m = p.model;
+  const int peisCount = uniform(rng, 2, 4);
+  for (int i = 0; i < peisCount; ++i) {
+    peisNamed(m, "q" + std::to_string(i), i + 1, i > 0 && chance(rng, 0.4));
+  }
+  if (chance(rng, 0.5)) m.linkCosts = {chance(rng, 0.5) ? 0.0 : 0.5, 1, uniform(rng, 2, 4) * 1.0};
+  // Fan-out models (one type on top, asked for by many consumers) are where
+  // using two producers of one thing pays off; else 2-3 layers of 1-3 types.
+  const bool fanOut = chance(rng, 0.4);
+  const int layers = fanOut ? 2 : uniform(rng, 2, 3);
+  std::vector<std::vector<std::string>> types(layers);
+  int made = 0;
+  for (int layer = 0; layer < layers && made < 9; ++layer) {
+    // Usually one type on top, so that several goals ask for it.
+    const int count = layer + 1 == layers ? (fanOut || chance(rng, 0.7) ? 1 : 2)
+                                          : uniform(rng, 1, fanOut ? 2 : 3);
+    for (int t = 0; t < count && made < 9; ++t) {
+      const auto type = std::string(1, static_cast<char>('a' + layer)) + std::to_string(t);
+      types[layer].push_back(type);
+      const int producers = fanOut && layer + 1 == layers ? uniform(rng, 2, 4) : uniform(rng, 1, 3);
+      for (int k = 0; k < producers && made < 9; ++k, ++made) {
+        Functionality f;
+        f.name = "f" + std::to_string(made);
+        f.cost = uniform(rng, 0, 8) * 0.5;
+        // Now and then two producers of one PEIS write one key (then only one runs).
+        const std::string key = chance(rng, 0.1) ? "out" : "out" + std::to_string(made);
+        f.outputs = {port("out", type, key)};
+        if (layer > 0) {
+          const auto& below = types[layer - 1];
+          const int inputs = uniform(rng, 1, std::min<int>(2, static_cast<int>(below.size())));
+          std::vector<std::string> used;
+          for (int i = 0; i < inputs; ++i) {
+            const auto& in = below[uniform(rng, 0, static_cast<int>(below.size()) - 1)];
+            if (std::find(used.begin(), used.end(), in) != used.end()) continue;
+            used.push_back(in);
+            f.inputs.push_back(port("in" + std::to_string(i), in));
+          }
+        }
+        m.peis[uniform(rng, 0, peisCount - 1)].components[0].functionalities.push_back(f);
+      }
+    }
+  }
+  // Goals on the upper layers, most of them delivered to a consumer.
+  const int goals = fanOut ? uniform(rng, 3, 7) : uniform(rng, 1, 5);
+  for (int g = 0; g < goals; ++g) {
+    const int layer = std::max(0, layers - 1 - (!fanOut && chance(rng, 0.3) ? 1 : 0));
+    const auto& pool = types[layer].empty() ? types[0] : types[layer];
+    InformationGoal goal;
+    goal.information = *Term::parse(pool[uniform(rng, 0, static_cast<int>(pool.size()) - 1)]);
+    if (chance(rng, 0.85)) {
+      goal.consumerPeis = m.peis[uniform(rng, 0, peisCount - 1)].name;
+      goal.consumerKey = "mi-g" + std::to_string(g);
+    }
+    p.goals.information.push_back(goal);
+  }
+  if (chance(rng, 0.05)) m.peis[uniform(rng, 1, peisCount - 1)].alive = false;
+  if (chance(rng, 0.1)) {
+    p.goals.constraints.prefer.push_back(
+        *InstanceSelector::parse("*/c/f" + std::to_string(uniform(rng, 0, made - 1)), nullptr));
+  }
+  return p;
+}
+
 Problem sensing(std::mt19937& rng, int functionalities) {
   Problem p;
   auto& m = p.model;

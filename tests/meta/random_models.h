@@ -20,6 +20,12 @@ struct Problem {
 // shared producers, alternative producers, cycles possible.
 Problem smallRandom(std::mt19937& rng);
 
+// Tiny layered models where producers are shared: 2-3 layers of types,
+// 1-3 producers per type on 2-4 PEIS (local, LAN and radio links, so one
+// slot's producers differ in link cost), 1-6 goals; no cycle can form.
+// At most about 9 functionalities, for the exhaustive search.
+Problem smallShared(std::mt19937& rng);
+
 // Sensing (after the ecare@home benchmark): sensors, and inference
 // functionalities that derive a concept (`activity(?p, room)`) from 1-5
 // sensed concepts; a few alternative inferences per concept; goals ask for

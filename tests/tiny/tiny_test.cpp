@@ -7,6 +7,7 @@
 
 #include <catch2/catch.hpp>
 #include <csignal>
+#include <cstdio>
 #include <cstring>
 #include <deque>
 #include <memory>
@@ -22,6 +23,7 @@ extern "C" {
 }
 
 #include "support/process.h"
+#include "support/temp_dir.h"
 #include "support/wait_for.h"
 
 using namespace std::chrono_literals;
@@ -782,6 +784,38 @@ TEST_CASE("tiny: plant and blind processes on the simulated UDP medium: the blin
     }
     ++salt;
   }
+}
+
+TEST_CASE("tiny: a node whose radio link is cut hears nothing until the cut ends",
+          "[integration][tiny]") {
+  using peis::test::Process;
+  using peis::test::waitFor;
+  peis::test::TempDir dir("radio-cut");
+  const std::string cut = dir.write("blind.cut", "cut\n");
+  const std::string port = std::to_string(mediumPort(7));
+  Process::Environment common{{"TINY_MEDIUM_PORT", port}, {"TINY_MEDIUM_SLOTS", "16"}};
+  Process::Environment blindEnv = common;
+  blindEnv.emplace_back("TINY_RADIO_CUT_FILE", cut);
+  Process::Environment plantEnv = common;
+  plantEnv.emplace_back("TINY_LIGHT", "900");  // too much sun: the plant asks the blind to close
+  Process blind({TINY_BLIND_PATH}, blindEnv);
+  Process plant({TINY_PLANT_PATH}, plantEnv);
+  REQUIRE(waitFor([&] { return plant.out().find("plant tilt 0\n") != std::string::npos; }, 20s));
+  // The plant re-sends its tuple to the blind's renewed subscription within a
+  // few seconds; with the link cut, none of it arrives.
+  CHECK_FALSE(waitFor([&] { return blind.out().find("blind closed") != std::string::npos; }, 4s));
+  std::remove(cut.c_str());
+  const bool closed =
+      waitFor([&] { return blind.out().find("blind closed 0\n") != std::string::npos; }, 20s);
+  INFO(blind.describe());
+  REQUIRE(closed);
+  blind.kill(SIGTERM);
+  REQUIRE(blind.wait(5s) == std::optional<int>(0));
+  // What the cut swallowed is counted.
+  const std::string err = blind.err();
+  const auto at = err.find(" cut ");
+  REQUIRE(at != std::string::npos);
+  CHECK(std::stol(err.substr(at + 5)) > 0);
 }
 
 TEST_CASE("tiny: serial framing (0x7E, length, frame, checksum) round-trips and resyncs",

@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -34,6 +35,23 @@ void host_medium_config_from_env(host_medium_config *cfg) {
   cfg->dup_pct = env_unsigned("TINY_DUP", 0);
   cfg->delay_ms = env_unsigned("TINY_DELAY_MS", 0);
   cfg->jitter_ms = env_unsigned("TINY_JITTER_MS", 0);
+  cfg->cut_file[0] = '\0';
+  if (getenv("TINY_RADIO_CUT_FILE") != NULL &&
+      strlen(getenv("TINY_RADIO_CUT_FILE")) < sizeof cfg->cut_file)
+    strcpy(cfg->cut_file, getenv("TINY_RADIO_CUT_FILE"));
+}
+
+int host_medium_is_cut(host_medium *m) {
+  struct stat st;
+  uint32_t now;
+  if (m->cfg.cut_file[0] == '\0') return 0;
+  now = host_now_ms();
+  if (!m->cut_checked || (uint32_t)(now - m->cut_checked_ms) >= HOST_MEDIUM_CUT_CHECK_MS) {
+    m->is_cut = stat(m->cfg.cut_file, &st) == 0;
+    m->cut_checked = 1;
+    m->cut_checked_ms = now;
+  }
+  return m->is_cut;
 }
 
 static uint32_t rnd(host_medium *m) { /* xorshift32 */
@@ -116,6 +134,10 @@ static void enqueue(host_medium *m, unsigned port, const uint8_t *buf, uint8_t l
 int host_medium_send(host_medium *m, const uint8_t *frame, uint8_t len) {
   unsigned i;
   if (len > TINY_FRAME_MAX) return -1;
+  if (host_medium_is_cut(m)) {
+    ++m->cut;
+    return 0;
+  }
   for (i = 0; i < m->cfg.slots; ++i) {
     unsigned port = m->cfg.base_port + i;
     if (i == m->slot) continue;
@@ -157,5 +179,9 @@ int host_medium_recv(host_medium *m, uint8_t *buf, uint8_t cap) {
    * counts it as too long instead of reading a cut frame. */
   n = recv(m->fd, buf, cap, MSG_TRUNC);
   if (n < 0) return 0;
+  if (host_medium_is_cut(m)) {
+    ++m->cut; /* heard nothing */
+    return 0;
+  }
   return n > 0x7FFF ? 0x7FFF : (int)n;
 }

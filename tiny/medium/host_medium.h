@@ -8,6 +8,11 @@
  * of processes up to `slots` share one medium, and separate tests use
  * separate bases). Loss, duplication and delay (with jitter) are applied on
  * the sending side, per frame and per receiver.
+ *
+ * A member's link can be cut while it runs (a fault a scenario injects):
+ * while the file TINY_RADIO_CUT_FILE names exists, the member sends nothing
+ * and hears nothing, as a node whose antenna came off (checked at most
+ * every HOST_MEDIUM_CUT_CHECK_MS; frames lost so are counted in `cut`).
  */
 #ifndef TINY_HOST_MEDIUM_H
 #define TINY_HOST_MEDIUM_H
@@ -20,15 +25,18 @@
 extern "C" {
 #endif
 
-#define HOST_MEDIUM_PENDING 64 /* delayed frames held at once */
+#define HOST_MEDIUM_PENDING 64       /* delayed frames held at once */
+#define HOST_MEDIUM_CUT_CHECK_MS 100 /* how often the cut file is looked at */
+#define HOST_MEDIUM_PATH_MAX 256
 
 typedef struct host_medium_config {
-  unsigned base_port; /* TINY_MEDIUM_PORT, default 47100 */
-  unsigned slots;     /* TINY_MEDIUM_SLOTS, default 8 (max 64) */
-  unsigned loss_pct;  /* TINY_LOSS: percent of frames lost */
-  unsigned dup_pct;   /* TINY_DUP: percent of frames delivered twice */
-  unsigned delay_ms;  /* TINY_DELAY_MS: fixed delay of every frame */
-  unsigned jitter_ms; /* TINY_JITTER_MS: extra random delay 0..jitter */
+  unsigned base_port;                  /* TINY_MEDIUM_PORT, default 47100 */
+  unsigned slots;                      /* TINY_MEDIUM_SLOTS, default 8 (max 64) */
+  unsigned loss_pct;                   /* TINY_LOSS: percent of frames lost */
+  unsigned dup_pct;                    /* TINY_DUP: percent of frames delivered twice */
+  unsigned delay_ms;                   /* TINY_DELAY_MS: fixed delay of every frame */
+  unsigned jitter_ms;                  /* TINY_JITTER_MS: extra random delay 0..jitter */
+  char cut_file[HOST_MEDIUM_PATH_MAX]; /* TINY_RADIO_CUT_FILE: "" = never cut */
 } host_medium_config;
 
 typedef struct host_pending {
@@ -43,7 +51,10 @@ typedef struct host_medium {
   int fd;
   unsigned slot;
   uint32_t rng;
-  uint32_t lost, duplicated, delayed, overflow;
+  uint32_t lost, duplicated, delayed, overflow, cut;
+  int is_cut;              /* the cut file existed at the last check */
+  uint32_t cut_checked_ms; /* when it was looked at */
+  int cut_checked;
   host_pending pending[HOST_MEDIUM_PENDING];
   uint8_t pending_used[HOST_MEDIUM_PENDING];
 } host_medium;
@@ -54,12 +65,15 @@ void host_medium_config_from_env(host_medium_config *cfg);
 int host_medium_open(host_medium *m, const host_medium_config *cfg);
 void host_medium_close(host_medium *m);
 /* Sends one frame (len <= TINY_FRAME_MAX) to every other slot, with the
- * configured loss, duplication and delay. Returns 0, or -1 if too long. */
+ * configured loss, duplication and delay (nothing while the link is cut).
+ * Returns 0, or -1 if too long. */
 int host_medium_send(host_medium *m, const uint8_t *frame, uint8_t len);
 /* Takes one received frame without blocking (sending the delayed frames
  * that are due first). Returns its length, which may exceed cap (the frame
  * was cut: the caller drops it as too long), or 0 if none. */
 int host_medium_recv(host_medium *m, uint8_t *buf, uint8_t cap);
+/* Whether the member's link is cut now (see above). */
+int host_medium_is_cut(host_medium *m);
 /* Milliseconds of CLOCK_MONOTONIC, wrapping. */
 uint32_t host_now_ms(void);
 /* Sends the delayed frames that are due; returns ms until the next one is

@@ -3,7 +3,8 @@
 // parcel's weight sensor) through their TINY_SENSOR_FILE. The actuators go
 // the other way without it: peis-sim-world --bind makes the world follow a
 // tiny node's reported state (LampLevel, BlindPosition) through the bridge.
-// docs/components/sim-sensors.md.
+// Its `fault.freeze` input (on / off) simulates stuck sensors: while on, the
+// files keep the last readings. docs/components/sim-sensors.md.
 #include <peis/component.h>
 
 #include <iostream>
@@ -27,6 +28,9 @@ Options:
   --weight OBJECT=FILE   weight of OBJECT (physics.object.OBJECT) into FILE
   --lux-per-level L      lux per light level 0..1000 (default 2: level 700 = 1400 lux)
   --help                 this text
+
+Tuples: fault.freeze (in, local or remote): `on` holds every file at its last
+readings (stuck sensors), `off` writes the current readings again.
 )usage";
 
 }  // namespace
@@ -56,10 +60,21 @@ int main(int argc, char** argv) {
   peis::Component component(kernel, "sim-sensors",
                             peis::Descriptor::fromYaml(kSensorsDescriptor, "sensors.yaml"));
   std::map<std::string, peis::devices::SensorValues> files;
+  bool frozen = false;  // kernel thread only
   auto write = [&](const std::string& file) {
+    if (frozen) return;  // a stuck sensor: the node keeps reading the old value
     if (!peis::devices::writeAtomically(file, peis::devices::formatSensorFile(files[file])))
       std::cerr << "peis-sim-sensors: cannot write " << file << std::endl;
   };
+  kernel.onChange(peis::Pattern::exact(kernel.id(), "fault.freeze"), [&](const peis::Tuple& t) {
+    const bool freeze = t.data == "on";
+    if (freeze == frozen) return;
+    frozen = freeze;
+    std::cerr << "peis-sim-sensors: readings " << (frozen ? "frozen" : "moving again") << std::endl;
+    if (!frozen) {
+      for (const auto& [file, values] : files) write(file);
+    }
+  });
   peis::exec::whenPeerKnown(kernel, worldName, [&](peis::PeisId world) {
     for (const auto& [thing, file] : lights) {
       kernel.subscribe(peis::Pattern("physics.light." + thing, world));

@@ -21,7 +21,8 @@ namespace {
 const char* kUsage = R"usage(Usage: peis-vacuum [OPTIONS] [--peis-* flags]
 
 The vacuum cleaner: ExecGoal Clean(<room>) covers the room (room.<room> of the
-map server) lane by lane. Needs a fresh position on mi-position to start;
+map server) lane by lane. Needs a fresh position on mi-position to start (a
+configured input that has not delivered yet is waited for, --position-wait);
 pushes an obstacle whose weight (mi-weight, grams) is at most --push-kg and goes
 around anything heavier or of unknown weight.
 
@@ -30,6 +31,8 @@ Options:
   --map-server NAME  the map server PEIS (default: world)
   --push-kg KG       the heaviest obstacle to push (default 1.0)
   --spacing M        metres between lanes (default: the robot's diameter)
+  --position-wait S  seconds a configured mi-position may take to deliver its
+                     first fresh position before Clean fails (default 10)
   --help             this text
 )usage";
 
@@ -39,7 +42,7 @@ int main(int argc, char** argv) {
   peis::Kernel kernel(argc, argv);
   peis::nav::RobotLinkSettings link;
   link.logPrefix = "vacuum";
-  double pushKg = 1.0, spacing = 0;
+  double pushKg = 1.0, spacing = 0, positionWait = 10;
   const int code = peis::exec::parseProgramOptions(
       argc, argv, "peis-vacuum", kUsage, [&](const std::string& name, const std::string& value) {
         const auto number = peis::exec::parseNumber(value);
@@ -51,6 +54,8 @@ int main(int argc, char** argv) {
           pushKg = *number;
         else if (name == "--spacing" && number && *number > 0)
           spacing = *number;
+        else if (name == "--position-wait" && number && *number >= 0 && *number <= 3600)
+          positionWait = *number;
         else
           return false;
         return true;
@@ -69,6 +74,14 @@ int main(int argc, char** argv) {
     std::uint64_t legId = 0;  // the navigator's id of the current leg
   };
   std::optional<Run> run;
+  // A Clean waiting for the first fresh position of a configured mi-position.
+  struct Waiting {
+    peis::exec::Action action;
+    std::uint64_t goalId = 0;
+    std::chrono::steady_clock::time_point until;
+  };
+  std::optional<Waiting> waiting;
+  std::function<void(const peis::exec::Action&, std::uint64_t)> begin;
   std::uint64_t legIds = 1ull << 40;  // navigator leg ids, apart from ExecGoal seqnos
   std::unique_ptr<peis::exec::ExecServer> server;
   std::unique_ptr<peis::nav::RobotLink> robot;
@@ -126,33 +139,63 @@ int main(int argc, char** argv) {
         return std::nullopt;
       },
       [&](const peis::exec::Action& a, std::uint64_t id) {
-        auto failed = [&](const std::string& cause) {
-          server->publish({peis::exec::ExecState::Failed, id, a.toString(), cause});
-        };
         if (run) {
           server->publish({peis::exec::ExecState::Failed, run->goalId, run->action,
                            "replaced by goal " + std::to_string(id)});
           run.reset();
           robot->apply(robot->navigator().onGoal({"Stop", {}}, ++legIds));
         }
+        if (waiting) {
+          server->publish({peis::exec::ExecState::Failed, waiting->goalId,
+                           waiting->action.toString(), "replaced by goal " + std::to_string(id)});
+          waiting.reset();
+        }
         if (a.name == "Stop")
           return server->publish({peis::exec::ExecState::Success, id, "Stop", ""});
-        if (!component.inputFresh("position"))
-          return failed("no position: mi-position is not configured or stale");
-        const auto roomTuple = robot->mapServerTuple("room." + a.args[0]);
-        const auto room = roomTuple ? peis::devices::parsePolygon(roomTuple->data) : std::nullopt;
-        if (!room) return failed("unknown room '" + a.args[0] + "'");
-        if (!robot->navigator().hasMap()) return failed("no map");
-        const auto& costmap = robot->navigator().costmap();
-        const double lanes = spacing > 0 ? spacing : 2 * costmap.options().robotRadius;
-        run =
-            Run{id, a.toString(), peis::devices::coverageWaypoints(costmap, *room, lanes), 0, 0, 0};
-        server->publish({peis::exec::ExecState::Running, id, a.toString(), ""});
-        robot->log("cleaning " + a.args[0] + ": " + std::to_string(run->waypoints.size()) +
-                   " lane ends");
-        progress();
-        nextLeg();
+        // Just configured (a configurator pointed mi-position somewhere): the
+        // first position may be on its way.
+        const auto meta = kernel.get("mi-position");
+        if (!component.inputFresh("position") && meta && !meta->data.empty() && positionWait > 0) {
+          server->publish({peis::exec::ExecState::Running, id, a.toString(), ""});
+          robot->log("waiting for a first position from " + meta->data);
+          waiting = Waiting{a, id,
+                            std::chrono::steady_clock::now() +
+                                std::chrono::milliseconds(static_cast<long>(positionWait * 1000))};
+          return;
+        }
+        begin(a, id);
       });
+  kernel.every(std::chrono::milliseconds(100), [&] {
+    if (!waiting) return;
+    if (component.inputFresh("position")) {
+      const Waiting w = *waiting;
+      waiting.reset();
+      return begin(w.action, w.goalId);
+    }
+    if (std::chrono::steady_clock::now() < waiting->until) return;
+    server->publish({peis::exec::ExecState::Failed, waiting->goalId, waiting->action.toString(),
+                     "no position: mi-position delivered none in time (--position-wait)"});
+    waiting.reset();
+  });
+  begin = [&](const peis::exec::Action& a, std::uint64_t id) {
+    auto failed = [&](const std::string& cause) {
+      server->publish({peis::exec::ExecState::Failed, id, a.toString(), cause});
+    };
+    if (!component.inputFresh("position"))
+      return failed("no position: mi-position is not configured or stale");
+    const auto roomTuple = robot->mapServerTuple("room." + a.args[0]);
+    const auto room = roomTuple ? peis::devices::parsePolygon(roomTuple->data) : std::nullopt;
+    if (!room) return failed("unknown room '" + a.args[0] + "'");
+    if (!robot->navigator().hasMap()) return failed("no map");
+    const auto& costmap = robot->navigator().costmap();
+    const double lanes = spacing > 0 ? spacing : 2 * costmap.options().robotRadius;
+    run = Run{id, a.toString(), peis::devices::coverageWaypoints(costmap, *room, lanes), 0, 0, 0};
+    server->publish({peis::exec::ExecState::Running, id, a.toString(), ""});
+    robot->log("cleaning " + a.args[0] + ": " + std::to_string(run->waypoints.size()) +
+               " lane ends");
+    progress();
+    nextLeg();
+  };
   component.input("position", std::chrono::seconds(2),
                   [&](const peis::Tuple& t) { robot->onFix(t); });
   component.input("weight", std::chrono::seconds(30), [&](const peis::Tuple&) { applyWeight(); });

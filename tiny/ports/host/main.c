@@ -4,7 +4,7 @@
  *   <program> [--id N] [--run-ms N]
  *
  * Environment: TINY_MEDIUM_PORT, TINY_MEDIUM_SLOTS, TINY_LOSS, TINY_DUP,
- * TINY_DELAY_MS, TINY_JITTER_MS (the medium, see host_medium.h);
+ * TINY_DELAY_MS, TINY_JITTER_MS, TINY_RADIO_CUT_FILE (the medium, see host_medium.h);
  * TINY_LIGHT (the light sensor: a fixed level 0..1000, default a slow
  * day-night ramp), TINY_WEIGHT (the weight sensor in grams, default 1250),
  * TINY_SENSOR_FILE (a file of lines "light N" / "weight N" written by a
@@ -84,21 +84,22 @@ long tiny_port_sensor(uint8_t channel) {
 
 static void print_stats(const tiny_kernel *k, const host_medium *m) {
   const tiny_stats *s = tiny_get_stats(k);
-  fprintf(stderr,
-          "tiny %u: rx %lu ok %lu tx %lu send-errors %lu | dropped: truncated %lu bad-length %lu "
-          "bad-version %lu unknown-type %lu too-many-subkeys %lu bad-key %lu data-too-long %lu "
-          "bad-src %lu | accepted %lu stale %lu unwanted %lu not-for-me %lu cache-full %lu "
-          "subscribers-full %lu | medium: lost %lu duplicated %lu delayed %lu overflow %lu\n",
-          (unsigned)k->id, (unsigned long)s->frames_rx, (unsigned long)s->frames_ok,
-          (unsigned long)s->frames_tx, (unsigned long)s->send_errors,
-          (unsigned long)s->drop_truncated, (unsigned long)s->drop_bad_length,
-          (unsigned long)s->drop_bad_version, (unsigned long)s->drop_unknown_type,
-          (unsigned long)s->drop_too_many_subkeys, (unsigned long)s->drop_bad_key,
-          (unsigned long)s->drop_data_too_long, (unsigned long)s->drop_bad_src,
-          (unsigned long)s->tuples_accepted, (unsigned long)s->tuples_stale,
-          (unsigned long)s->tuples_unwanted, (unsigned long)s->not_for_me,
-          (unsigned long)s->cache_full, (unsigned long)s->subscribers_full, (unsigned long)m->lost,
-          (unsigned long)m->duplicated, (unsigned long)m->delayed, (unsigned long)m->overflow);
+  fprintf(
+      stderr,
+      "tiny %u: rx %lu ok %lu tx %lu send-errors %lu | dropped: truncated %lu bad-length %lu "
+      "bad-version %lu unknown-type %lu too-many-subkeys %lu bad-key %lu data-too-long %lu "
+      "bad-src %lu | accepted %lu stale %lu unwanted %lu not-for-me %lu cache-full %lu "
+      "subscribers-full %lu | medium: lost %lu duplicated %lu delayed %lu overflow %lu cut %lu\n",
+      (unsigned)k->id, (unsigned long)s->frames_rx, (unsigned long)s->frames_ok,
+      (unsigned long)s->frames_tx, (unsigned long)s->send_errors, (unsigned long)s->drop_truncated,
+      (unsigned long)s->drop_bad_length, (unsigned long)s->drop_bad_version,
+      (unsigned long)s->drop_unknown_type, (unsigned long)s->drop_too_many_subkeys,
+      (unsigned long)s->drop_bad_key, (unsigned long)s->drop_data_too_long,
+      (unsigned long)s->drop_bad_src, (unsigned long)s->tuples_accepted,
+      (unsigned long)s->tuples_stale, (unsigned long)s->tuples_unwanted,
+      (unsigned long)s->not_for_me, (unsigned long)s->cache_full,
+      (unsigned long)s->subscribers_full, (unsigned long)m->lost, (unsigned long)m->duplicated,
+      (unsigned long)m->delayed, (unsigned long)m->overflow, (unsigned long)m->cut);
 }
 
 static int parse_arg(const char *v, unsigned long max, unsigned long *out) {

@@ -71,7 +71,7 @@ struct PlanStats {
   std::int64_t groundInstances = 0;    // functionality instances after grounding
   std::int64_t relevantInstances = 0;  // of those, the ones that can serve a goal
   std::int64_t parts = 0;              // independent sub-problems
-  std::int64_t nodes = 0;              // search nodes expanded
+  std::int64_t nodes = 0;              // search nodes expanded and local-search moves tried
   double firstSolutionMs = 0;          // time to the first valid configuration
   double totalMs = 0;
 };
