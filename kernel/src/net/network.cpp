@@ -173,6 +173,7 @@ class Network::Impl final : public LinkHandler {
   std::optional<SteadyClock::time_point> holdArmed_;
   std::function<void()> closed_;  // after stop(): runs once no link is left
   bool pruneArmed_ = false;
+  SteadyClock::time_point hostBusyUntil_;  // see pingLoop
   bool dialsPending_ = false;
   SteadyClock::time_point dialsFirstAsked_;
   Throttle recomputeThrottle_{io_}, advertThrottle_{io_};
@@ -518,19 +519,29 @@ void Network::Impl::pingLoop() {
     if (ec || stopped_) return;
     retryHeld();  // ages out frames whose source never became routable
     const auto now = SteadyClock::now();
+    // This timer running a whole period late says the host is overloaded:
+    // its processes (the peers too) wait for a core. For a while the
+    // liveness check then gives peers that are slow rather than gone more
+    // time (below).
+    if (now - pingTimer_.expiry() > config_.pingPeriod) {
+      hostBusyUntil_ = now + config_.deadAfter * kSlowPeerGrace;
+    }
+    const bool hostBusy = now < hostBusyUntil_;
     auto links = links_;
     for (auto& link : links) {
       // Bytes waiting in the socket are a sign of life too: after this
       // thread was starved (a busy host), the timer can run before the reads.
-      // A peer whose host still acknowledges every byte sent to it (our
-      // pings) is slow, not gone: a host so loaded that processes wait
-      // seconds for a core (a join of hundreds of PEIS on two cores) would
-      // otherwise close links that are fine, and their re-linking feeds the
-      // load. It gets kSlowPeerGrace times the liveness time; a peer whose
-      // host is gone leaves our bytes unacknowledged and is closed as before.
+      // On an overloaded host (a join of hundreds of PEIS on two cores:
+      // processes wait seconds for a core), a peer whose host still
+      // acknowledges every byte sent to it (our pings) is slow, not gone:
+      // closing its link, which is fine, and re-linking would feed the
+      // load. It gets kSlowPeerGrace times the liveness time. A peer whose
+      // host is gone leaves our bytes unacknowledged, and on a host that is
+      // not overloaded a frozen peer is closed, both as before.
       const auto silent = now - link->lastHeard_;
       if (silent > config_.deadAfter && !link->bytesWaiting() &&
-          (silent > config_.deadAfter * kSlowPeerGrace || !link->peerAcknowledgesAll())) {
+          (silent > config_.deadAfter * kSlowPeerGrace || !hostBusy ||
+           !link->peerAcknowledgesAll())) {
         link->close(
             "silent for more than " +
             std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(silent).count()) +
