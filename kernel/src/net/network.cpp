@@ -393,6 +393,10 @@ void Network::Impl::onFrame(Link& link, std::string_view frame) {
     }
     return onRouted(link, frame);
   }
+  // The routed messages that came before this link message in the same read
+  // go first: a PEIS that answers a write and then leaves must not be seen
+  // gone (its Leave, which fails the write) before its answer.
+  flushInbox();
   auto result = wire::decode(frame, config_.maxDataBytes);
   if (!result.message) return onMalformed(link, result.error);
   auto& message = std::get<wire::LinkMessage>(*result.message);
