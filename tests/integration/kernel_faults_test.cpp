@@ -16,6 +16,7 @@
 #include <atomic>
 #include <catch2/catch.hpp>
 #include <fstream>
+#include <future>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -455,4 +456,51 @@ TEST_CASE("remote writes fail with their reason, not with a time-out", "[integra
     CHECK(contains(error->what(), "write gate"));
     owner.setWriteGate({});
   }
+}
+
+// (5) An owner told to quit (kernel.do-quit) answers the write and leaves:
+// its WriteResult and its Leave reach the writer in one read. The writer
+// handled the Leave (a link message) at once and the result (a routed one)
+// only after the read, so `peis set OWNER.kernel.do-quit yes` reported
+// "went away" for a write its owner had applied.
+TEST_CASE("a write answered just before its owner leaves succeeds", "[fault][writes]") {
+  const auto ecology = uniqueEcology("answer-then-leave");
+  peis::Kernel writer(options(ecology, "writer"));
+  const PeisId ownerId = 434343;
+  RawPeer owner(writer.port(), ecology, ownerId);
+  REQUIRE(waitFor(
+      [&] {
+        owner.poll();  // answers the writer's pings
+        return reaches(writer, ownerId);
+      },
+      kDeadline));
+
+  auto result =
+      std::async(std::launch::async, [&] { return writer.set(ownerId, "kernel.do-quit", "yes"); });
+  std::optional<peis::wire::Write> write;
+  REQUIRE(waitFor(
+      [&] {
+        for (auto& message : owner.poll()) {
+          auto* routed = std::get_if<peis::wire::RoutedMessage>(&message);
+          if (routed && std::holds_alternative<peis::wire::Write>(routed->body)) {
+            write = std::get<peis::wire::Write>(routed->body);
+          }
+        }
+        return write.has_value();
+      },
+      kDeadline));
+  peis::wire::WriteResult answer;
+  answer.request = write->request;
+  answer.status = 0;
+  answer.seqno = 2;
+  auto bytes = peis::wire::encodeFrame(
+      peis::wire::RoutedMessage{peis::wire::Envelope{ownerId, writer.id(), 32}, answer});
+  std::string leave;
+  peis::wire::encode(peis::wire::LinkMessage{peis::wire::Leave{ownerId, 1}}, leave);
+  owner.send(bytes + leave);  // one write: the answer, then the leave
+
+  REQUIRE(result.wait_for(kDeadline) == std::future_status::ready);
+  const auto written = result.get();  // throws "went away" before the fix
+  CHECK(written.data == "yes");
+  CHECK(written.seqno == 2);
 }

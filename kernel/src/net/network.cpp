@@ -629,6 +629,9 @@ void Network::Impl::onRoutes(Link& link, wire::Routes& routes) {
 }
 
 void Network::Impl::onLeave(Link& link, const wire::Leave& leave) {
+  // What the leaving PEIS sent before its Leave (the result of the write
+  // that made it quit, say) is delivered before it is gone.
+  flushInbox();
   if (!table_.onLeave(link.peer_.id, leave, SteadyClock::now())) return;
   log::debug(self_, "PEIS " + std::to_string(leave.id) + " left");
   for (const auto& other : links_) {  // pass it on, once
