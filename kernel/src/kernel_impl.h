@@ -152,8 +152,8 @@ struct Kernel::Impl {
   // coalesce, as before) until the outbox drains.
   static constexpr std::size_t kWriterWaitAbove = 1u << 20;
   static constexpr std::size_t kWriterResumeBelow = 256u << 10;
-  static constexpr std::chrono::milliseconds kWriterProgressWait{50};
-  static constexpr std::chrono::milliseconds kWriterMaxWait{200};
+  static constexpr std::chrono::milliseconds kWriterProgressWait{10};
+  static constexpr std::chrono::milliseconds kWriterMaxWait{20};
   void awaitOutbox() EXCLUDES(mu);
   void noteOutboxDrained() REQUIRES(mu);
   // Posts drain / flush / the retry timer as the state needs; wakes
