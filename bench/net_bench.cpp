@@ -114,7 +114,7 @@ int rolePeisEcho(const std::map<std::string, std::string>& flags) {
   peis::Kernel kernel(options);
   const int peer = std::stoi(flags.at("--peer"));
   kernel.onChange(peis::Pattern::exact(peer, "ping"),
-                  [&](const peis::Tuple& t) { kernel.set("pong", t.data); });
+                  [&](const peis::Tuple& t) { kernel.publish("pong", t.data); });
   kernel.subscribe(peis::Pattern::exact(peer, "ping"));
   kernel.run();
   return 0;
@@ -229,7 +229,7 @@ Percentiles peisRoundTrip(std::size_t bytes, int count, const std::string& ecolo
     std::memcpy(payload.data(), tag, std::min<std::size_t>(16, bytes));
     const std::string expect = payload.substr(0, 16);
     const auto start = Clock::now();
-    kernel.set("ping", payload);
+    kernel.publish("ping", payload);
     std::unique_lock lock(mu);
     if (!cv.wait_for(lock, 5s, [&] { return lastPong == expect; })) break;
     if (i >= 50)
@@ -267,7 +267,7 @@ Throughput streamTo(std::size_t bytes, int sinks, const std::string& ecology,
   const auto until = Clock::now() + writeFor;
   std::uint64_t written = 0, last = 0;
   while (Clock::now() < until) {
-    for (int i = 0; i < 64; ++i) last = kernel.set("stream", payload).seqno;
+    for (int i = 0; i < 64; ++i) last = kernel.publish("stream", payload);
     written += 64;
   }
   Throughput result;
@@ -390,6 +390,16 @@ ScaleResult scale(int n, const std::string& ecology) {
       },
       60s);
   if (all) result.secondsToAll = std::chrono::duration<double>(Clock::now() - start).count();
+  if (progress) {
+    // The CPU the nodes spent until then: far less sensitive to the load of
+    // the machine than the time (docs/performance.md, "Scale").
+    long ticks = 0;
+    for (auto& node : nodes) ticks += procTicks(node->pid());
+    std::fprintf(stderr, "scale %d: %.2f s: all %s, CPU of the nodes until then %.2f s\n", n,
+                 std::chrono::duration<double>(Clock::now() - start).count(),
+                 all ? "values seen" : "values NOT seen",
+                 static_cast<double>(ticks) / static_cast<double>(sysconf(_SC_CLK_TCK)));
+  }
   std::this_thread::sleep_for(4s);  // let start-up work (and link pruning) finish first
   std::vector<long> before;
   for (auto& node : nodes) before.push_back(procTicks(node->pid()));

@@ -99,18 +99,11 @@ std::string Kernel::name() const { return impl_->name; }
 const Options& Kernel::options() const { return impl_->options; }
 
 Tuple Kernel::set(std::string_view key, std::string data, const WriteOptions& options) {
-  bool backedUp = false;
-  auto tuple = impl_->mutate([&](TupleSpace& s, Replication& r) {
-    auto stored = s.set(key, std::move(data), options);
-    backedUp = r.outboxBytes() >= Replication::kTrackOutboxAbove;
-    return stored;
-  });
-  impl_->noteExpiry(*tuple);
-  // A writer that outruns the network (its updates have started to wait in
-  // the outbox, to be coalesced) gives up the rest of its time slice, so the
-  // threads that send and deliver get the CPU its next writes would take.
-  if (backedUp && !onKernelThread()) std::this_thread::yield();
-  return *tuple;
+  return *impl_->setOwn(key, std::move(data), options);
+}
+
+std::uint64_t Kernel::publish(std::string_view key, std::string data, const WriteOptions& options) {
+  return impl_->setOwn(key, std::move(data), options)->seqno;
 }
 
 namespace {
@@ -232,7 +225,7 @@ NetworkStats Kernel::networkStats() const {
     if (!impl_->network) return;
     const auto& c = impl_->network->counters();
     stats = NetworkStats{c.framesIn,
-                         c.framesOut,
+                         c.framesOut + c.directFramesOut.load(std::memory_order_relaxed),
                          c.malformedFrames,
                          c.garbagePeersDisconnected,
                          c.foreignEcologyRejected,

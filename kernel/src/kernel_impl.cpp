@@ -114,4 +114,20 @@ void Kernel::Impl::publishSpecialTuples() {
   });
 }
 
+TuplePtr Kernel::Impl::setOwn(std::string_view key, std::string data,
+                              const WriteOptions& writeOptions) {
+  bool backedUp = false;
+  auto tuple = mutate([&](TupleSpace& s, Replication& r) {
+    auto stored = s.set(key, std::move(data), writeOptions);
+    backedUp = r.outboxBytes() >= kWriterWaitAbove;
+    return stored;
+  });
+  noteExpiry(*tuple);
+  // A writer that outruns its subscribers (updates have started to wait in
+  // the outbox) waits, a bounded time, for them to catch up, rather than
+  // produce values that would be coalesced (awaitOutbox).
+  if (backedUp && std::this_thread::get_id() != threadId) awaitOutbox();
+  return tuple;
+}
+
 }  // namespace peis

@@ -17,12 +17,15 @@
 #include <condition_variable>
 #include <deque>
 #include <future>
+#include <map>
 #include <memory>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "adaptive_mutex.h"
+#include "direct_send.h"
+#include "net/link.h"
 #include "net/network.h"
 #include "peis/kernel.h"
 #include "remote_writes.h"
@@ -53,16 +56,34 @@ struct Kernel::Impl {
   mutable AdaptiveMutex mu;
   // Signalled (mu held) on every mutation while `waiters` > 0: blocking get.
   mutable std::condition_variable_any changed;
+  // Signalled (mu held) when the outbox has drained while writers wait for
+  // it (awaitOutbox).
+  std::condition_variable_any outboxDrained;
   TupleSpace space GUARDED_BY(mu);
   Replication replication GUARDED_BY(mu);
   bool drainScheduled GUARDED_BY(mu) = false;
   bool flushScheduled GUARDED_BY(mu) = false;
-  bool retryArmed GUARDED_BY(mu) = false;             // retryTimer armed or posted
-  bool networkStopped GUARDED_BY(mu) = false;         // no retry timer after stopNetwork
-  mutable int waiters GUARDED_BY(mu) = 0;             // threads blocked in get(…, wait)
+  bool retryArmed GUARDED_BY(mu) = false;      // retryTimer armed or posted
+  bool networkStopped GUARDED_BY(mu) = false;  // no retry timer after stopNetwork
+  mutable int waiters GUARDED_BY(mu) = 0;      // threads blocked in get(…, wait)
+  int outboxWaiters GUARDED_BY(mu) = 0;        // writers in awaitOutbox
+  // A writer's wait ran out without the outbox draining: a subscriber does
+  // not keep up, and writers do not wait again until the outbox drained.
+  bool outboxLagging GUARDED_BY(mu) = false;
+  std::uint64_t outboxTaken GUARDED_BY(mu) = 0;       // entries flush took: progress
   std::vector<PeerInfo> peerSnapshot GUARDED_BY(mu);  // what peers() returns
   std::string publishedSubscribers GUARDED_BY(mu);
   WriteGate writeGate GUARDED_BY(mu);
+  // Direct sends (docs/architecture.md, "Direct sends"): the link towards
+  // each destination flush has served since the last topology change; whether flush has
+  // taken entries it has not handed to the links yet (then nobody may send
+  // around it); and when the last direct send happened, and whether a
+  // message arrived since (a stream is left to flush's batches instead).
+  std::map<PeisId, std::shared_ptr<net::Link>> directLinks GUARDED_BY(mu);
+  std::size_t directBacklogLimit GUARDED_BY(mu) = 0;
+  bool handingOff GUARDED_BY(mu) = false;
+  std::chrono::steady_clock::time_point lastDirect GUARDED_BY(mu);
+  bool receivedSinceDirect GUARDED_BY(mu) = true;
 
   // --- Kernel thread only (no lock) ----------------------------------------------
   std::unique_ptr<net::Network> network;
@@ -84,6 +105,9 @@ struct Kernel::Impl {
   std::string quitReason GUARDED_BY(quitMu);
 
   // --- kernel_impl.cpp ---
+  // Kernel::set and Kernel::publish of an own tuple: the stored tuple.
+  TuplePtr setOwn(std::string_view key, std::string data, const WriteOptions& writeOptions)
+      EXCLUDES(mu);
   void publishSpecialTuples() EXCLUDES(mu);
   void requestQuit(std::string reason) EXCLUDES(quitMu);
   // A callback, timer function, posted function or completion threw.
@@ -91,11 +115,16 @@ struct Kernel::Impl {
 
   // Runs fn(space, replication) under the lock, then wakes the kernel
   // thread and blocked readers as needed.
+  // What it queued for the network is sent from this thread, straight to
+  // the links, when that keeps the rules (sendDirect).
   template <typename F>
   auto mutate(F&& fn) EXCLUDES(mu) {
+    DirectSend direct;
     MutexLock lock(mu);
     auto result = fn(space, replication);
-    afterMutation();
+    afterMutation(&direct);
+    lock.unlock();
+    direct.send();
     return result;
   }
 
@@ -115,8 +144,34 @@ struct Kernel::Impl {
   }
 
   // --- kernel_pump.cpp ---
-  // Posts drain / flush / the retry timer as the state needs; wakes readers.
-  void afterMutation() REQUIRES(mu);
+  // Writer backpressure (docs/architecture.md, "Backpressure"): a writer
+  // that finds kWriterWaitAbove bytes of updates waiting in the outbox waits
+  // until they are down to kWriterResumeBelow, as long as some leave it
+  // every kWriterProgressWait and at most kWriterMaxWait; if they do not, a
+  // subscriber does not keep up: writers stop waiting (its updates
+  // coalesce, as before) until the outbox drains.
+  static constexpr std::size_t kWriterWaitAbove = 1u << 20;
+  static constexpr std::size_t kWriterResumeBelow = 256u << 10;
+  static constexpr std::chrono::milliseconds kWriterProgressWait{10};
+  static constexpr std::chrono::milliseconds kWriterMaxWait{20};
+  void awaitOutbox() EXCLUDES(mu);
+  void noteOutboxDrained() REQUIRES(mu);
+  // Posts drain / flush / the retry timer as the state needs; wakes
+  // readers. With `direct`, what waits in the outbox may go into it instead
+  // (sendDirect), for the caller to send once it has let go of mu.
+  void afterMutation(DirectSend* direct = nullptr) REQUIRES(mu);
+  // Takes what waits in the outbox into `direct` when that keeps every rule
+  // (see kernel_pump.cpp); true when nothing that could be sent is left
+  // for flush.
+  bool sendDirect(DirectSend& direct) REQUIRES(mu);
+  // Forgets the links for direct sends: the topology changed (kernel
+  // thread). flush() notes the link of each destination it serves.
+  void forgetDirectLinks() REQUIRES(mu);
+  // Runs deliveries now when on the kernel thread in a handler that
+  // applied received messages (no post, no extra turn of the loop).
+  bool drainInline = false;    // kernel thread only
+  bool drainDeferred = false;  // kernel thread only: afterMutation left the drain to it
+  bool flushDeferred = false;  // kernel thread only: and the flush
   void drain() EXCLUDES(mu);
   void flush() EXCLUDES(mu);
   void onWritable() EXCLUDES(mu);

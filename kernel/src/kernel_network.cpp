@@ -57,6 +57,8 @@ void Kernel::Impl::stopNetwork(std::function<void()> closed) {  // kernel thread
   {
     MutexLock lock(mu);
     networkStopped = true;
+    directLinks.clear();
+    outboxDrained.notify_all();
   }
   retryTimer.cancel();
   flushTimer.cancel();
@@ -95,6 +97,7 @@ void Kernel::Impl::refreshSubscribersTuple() {
 
 void Kernel::Impl::onTopology() {
   MutexLock lock(mu);
+  forgetDirectLinks();
   snapshotPeers();
   refreshMembershipTuples();
   afterMutation();
@@ -114,7 +117,8 @@ void Kernel::Impl::onPeerDown(PeisId peer) {
     log::debug(id, "PEIS " + std::to_string(peer) + " is gone");
     replication.onPeerDown(peer);
     replication.outbox().drop(peer);  // nothing waits for a PEIS that is gone
-    refreshSubscribersTuple();        // the membership tuples follow with onTopology
+    noteOutboxDrained();
+    refreshSubscribersTuple();  // the membership tuples follow with onTopology
     afterMutation();
   }
   remoteWrites.failOwner(
@@ -136,7 +140,12 @@ void Kernel::Impl::holdWrite(const WriteGate& gate, PeisId source, wire::Write&&
   WriteDecision decide = [this, source, held, decided,
                           gateTimer](const std::optional<Error>& refusal) {
     if (decided->exchange(true)) return;
-    asio::post(io, [this, source, held, refusal, gateTimer] {
+    // A deep copy: a copied std::runtime_error shares its message with the
+    // gate's (a reference count ThreadSanitizer cannot see), which the
+    // gate's thread may destroy while the kernel thread reads it.
+    std::optional<Error> own;
+    if (refusal) own.emplace(refusal->code(), std::string(refusal->what()));
+    asio::post(io, [this, source, held, refusal = std::move(own), gateTimer] {
       gateTimer->cancel();
       MutexLock lock(mu);
       if (refusal) {
@@ -175,8 +184,10 @@ void Kernel::Impl::onMessages(std::vector<wire::RoutedMessage>&& messages) {
   std::vector<std::pair<PeisId, wire::WriteResult>> results;
   std::vector<std::pair<PeisId, wire::Write>> gated;
   WriteGate gate;
+  drainInline = true;  // the deliveries run below, without a post
   {
     MutexLock lock(mu);
+    receivedSinceDirect = true;  // an answer may follow: send it at once
     for (auto& message : messages) {
       const auto source = message.envelope.source;
       std::visit(
@@ -213,8 +224,14 @@ void Kernel::Impl::onMessages(std::vector<wire::RoutedMessage>&& messages) {
     afterMutation();
     if (!gated.empty()) gate = writeGate;
   }
+  drainInline = false;
   for (auto& [source, write] : gated) holdWrite(gate, source, std::move(write));
   for (auto& [source, result] : results) remoteWrites.onResult(source, result);
+  // What it queued goes out, and the callbacks of what arrived run, now, on
+  // this turn of the loop (as a listener on a receive thread does), not
+  // after a post.
+  if (std::exchange(flushDeferred, false)) flush();
+  if (std::exchange(drainDeferred, false)) drain();
 }
 
 PeisId Kernel::Impl::repickId() {

@@ -25,20 +25,112 @@ constexpr std::size_t kMaxWaitingBytes = 16u << 20;
 
 }  // namespace
 
-void Kernel::Impl::afterMutation() {
-  if (!flushScheduled && replication.outbox().hasReady()) {
+void Kernel::Impl::afterMutation(DirectSend* direct) {
+  // A handler of received messages delivers and sends itself once it has
+  // let go of the lock (Impl::onMessages); anything else posts.
+  // (drainInline is the kernel thread's own: read only there.)
+  const bool handlerRuns = std::this_thread::get_id() == threadId && drainInline;
+  if (!flushScheduled && replication.outbox().hasReady() && !(direct && sendDirect(*direct))) {
     flushScheduled = true;
-    asio::post(io, [this] { flush(); });
+    if (handlerRuns) {
+      flushDeferred = true;
+    } else {
+      asio::post(io, [this] { flush(); });
+    }
   }
   if (!drainScheduled && (space.hasPendingDeliveries() || space.allKeysDirty())) {
     drainScheduled = true;
-    asio::post(io, [this] { drain(); });
+    if (handlerRuns) {
+      drainDeferred = true;
+    } else {
+      asio::post(io, [this] { drain(); });
+    }
   }
   if (waiters > 0) changed.notify_all();
   if (!retryArmed && replication.hasUnanswered()) {
     retryArmed = true;
     asio::post(io, [this] { armRetry(); });
   }
+}
+
+// A direct send hands the outbox's messages to the links from the thread
+// that queued them, under `mu`, instead of waking the kernel thread to do it
+// (a hand-off, a wake-up and a turn of its loop per message: most of a
+// round trip's cost). The rules it keeps:
+//  - order per destination: it takes from the outbox as flush does, and
+//    never while flush holds taken entries it has not handed on
+//    (handingOff); a link writes what it queued before what is sent now;
+//  - backpressure per link: a destination whose link is congested, or
+//    holds more than the congestion mark, is left in the outbox for flush
+//    (which marks it and coalesces there) exactly as before;
+//  - batching of streams: a writer that sends again within kDirectGap of
+//    its last direct send, with nothing received meanwhile, is a stream:
+//    its updates wait for flush's batches (one system call for many).
+namespace {
+constexpr std::chrono::microseconds kDirectGap{20};
+}  // namespace
+
+bool Kernel::Impl::sendDirect(DirectSend& direct) {
+  if (directLinks.empty() || handingOff || networkStopped) return false;
+  const auto now = std::chrono::steady_clock::now();
+  if (!receivedSinceDirect && now - lastDirect < kDirectGap) return false;
+  auto& outbox = replication.outbox();
+  if (auto spare = DirectSend::spareFrames(); spare.capacity() > 0) {
+    outbox.recycleFrames(std::move(spare));
+  }
+  thread_local std::vector<Replication::Outgoing> taken;  // memory reused
+  taken.clear();
+  outbox.take(
+      taken, kMessagesPerTurn, kBytesPerTurn,
+      [&](PeisId destination) {
+        mu.assertHeld();
+        const auto it = directLinks.find(destination);
+        return it == directLinks.end() || !direct.admit(it->second, directBacklogLimit);
+      },
+      /*noteBlocked=*/false);
+  if (taken.empty()) return false;
+  lastDirect = now;
+  receivedSinceDirect = false;
+  direct.stamp(id, incarnation);
+  for (auto& out : taken) {
+    const auto destination = out.destination;
+    direct.add(directLinks.at(destination).get(), std::move(out));
+  }
+  taken.clear();
+  return !outbox.hasReady();
+}
+
+void Kernel::Impl::forgetDirectLinks() {
+  directLinks.clear();  // flush notes them again as it sends (a join changes the topology often)
+  if (network) directBacklogLimit = network->congestedAboveBytes();
+}
+
+void Kernel::Impl::awaitOutbox() {  // an application thread
+  MutexLock lock(mu);
+  if (outboxLagging) return;
+  ++outboxWaiters;
+  const auto deadline = std::chrono::steady_clock::now() + kWriterMaxWait;
+  while (true) {
+    const auto taken = outboxTaken;
+    const bool drained = outboxDrained.wait_for(lock, kWriterProgressWait, [this] {
+      mu.assertHeld();
+      return replication.outboxBytes() < kWriterResumeBelow || networkStopped;
+    });
+    if (drained) break;
+    // Nothing left the outbox for a while (its link is stalled), or the
+    // wait is long already: a subscriber does not keep up.
+    if (outboxTaken == taken || std::chrono::steady_clock::now() >= deadline) {
+      outboxLagging = true;
+      break;
+    }
+  }
+  --outboxWaiters;
+}
+
+void Kernel::Impl::noteOutboxDrained() {
+  if (replication.outboxBytes() >= kWriterResumeBelow) return;
+  outboxLagging = false;
+  if (outboxWaiters > 0) outboxDrained.notify_all();
 }
 
 void Kernel::Impl::armRetry() {  // kernel thread
@@ -115,8 +207,21 @@ void Kernel::Impl::flush() {  // kernel thread
         cutOff.push_back(destination);
       }
     }
+    noteOutboxDrained();
     std::size_t messages = 0;
     for (const auto& out : outgoing) messages += out.frameCount > 0 ? out.frameCount : 1;
+    // Until they are handed to the links, nobody sends around them.
+    handingOff = !outgoing.empty();
+    outboxTaken += outgoing.size();
+    // The links of the destinations served here take the next direct sends.
+    if (network && !networkStopped) {
+      for (const auto& out : outgoing) {
+        if (directLinks.count(out.destination)) continue;
+        if (auto link = network->linkTowards(out.destination)) {
+          directLinks.emplace(out.destination, std::move(link));
+        }
+      }
+    }
     if (more) {
       asio::post(io, [this] { flush(); });  // more: let the sockets drain first
     } else if (messages >= kStreamMessages) {
@@ -142,6 +247,10 @@ void Kernel::Impl::flush() {  // kernel thread
       network->send(wire::RoutedMessage{wire::Envelope{0, out.destination, wire::kDefaultTtl},
                                         std::move(*out.body)});
     }
+  }
+  if (!outgoing.empty()) {
+    MutexLock lock(mu);
+    handingOff = false;
   }
   outgoing.clear();  // drop the references to sent tuples now
   // A peer that takes in less than it is sent, for longer than coalescing

@@ -103,15 +103,16 @@ void Outbox::appendFrame(PeisId destination, Queue& queue, const Tuple& tuple) {
 }
 
 bool Outbox::take(std::vector<Outgoing>& out, std::size_t most, std::size_t mostBytes,
-                  const std::function<bool(PeisId)>& blocked) {
+                  const std::function<bool(PeisId)>& blocked, bool noteBlocked) {
   std::size_t count = 0, bytes = 0;
   bool more = false;
   for (std::size_t i = 0; i < order_.size();) {
     const auto destination = order_[i];
     auto it = queues_.find(destination);
     auto& queue = it->second;
-    queue.blocked = blocked && blocked(destination);
-    if (queue.blocked) {
+    const bool skip = blocked && blocked(destination);
+    if (noteBlocked) queue.blocked = skip;
+    if (skip) {
       ++i;
       continue;
     }

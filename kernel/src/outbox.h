@@ -62,9 +62,12 @@ class Outbox {
   // they started waiting, skipping those `blocked` names, and stops early
   // once the entries taken carry `mostBytes` of updates (at least one entry
   // is taken if any can be). Returns whether entries that could be taken
-  // are left.
+  // are left. `noteBlocked` false: the destinations skipped are not
+  // remembered as blocked (a direct send's take, whose reasons to skip are
+  // its own).
   bool take(std::vector<Outgoing>& out, std::size_t most = SIZE_MAX,
-            std::size_t mostBytes = SIZE_MAX, const std::function<bool(PeisId)>& blocked = {});
+            std::size_t mostBytes = SIZE_MAX, const std::function<bool(PeisId)>& blocked = {},
+            bool noteBlocked = true);
   // Whether anything waits that the last take() did not find blocked.
   bool hasReady() const;
   bool empty() const { return order_.empty(); }

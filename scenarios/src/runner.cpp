@@ -516,14 +516,15 @@ class Runner {
         mayHaveSkips |= ::fnmatch(owner.c_str(), name.c_str(), 0) == 0;
     }
     const PeisId id = p.id;
+    // Callbacks first, then the subscription: a value that arrives at once
+    // (before a callback registered after it) would never be an event.
     if (!mayHaveSkips) {
-      kernel_->subscribe(Pattern("**", id));
       kernel_->onChange(Pattern("**", id), [this](const Tuple& t) { record(t, false); });
       kernel_->onDelete(Pattern("**", id), [this](const Tuple& t) { record(t, true); });
+      kernel_->subscribe(Pattern("**", id));
       return;
     }
     const std::string name = p.name;
-    kernel_->subscribe(Pattern::exact(id, special::kAllKeys));
     kernel_->onChange(Pattern::exact(id, special::kAllKeys), [this, id, name](const Tuple& t) {
       std::istringstream keys(t.data);
       for (std::string key; keys >> key;) {
@@ -532,11 +533,12 @@ class Runner {
           std::lock_guard lock(mu_);
           if (!tracedKeys_.insert({id, key}).second) continue;
         }
-        kernel_->subscribe(Pattern::exact(id, key));
         kernel_->onChange(Pattern::exact(id, key), [this](const Tuple& v) { record(v, false); });
         kernel_->onDelete(Pattern::exact(id, key), [this](const Tuple& v) { record(v, true); });
+        kernel_->subscribe(Pattern::exact(id, key));
       }
     });
+    kernel_->subscribe(Pattern::exact(id, special::kAllKeys));
   }
 
   // Kernel thread: one tuple change for the trace; configuration changes
@@ -575,14 +577,15 @@ class Runner {
   }
 
   void watch(const std::string& owner, PeisId id, const std::string& key) {
-    {
-      std::lock_guard lock(mu_);
-      watchedSubscriptions_[{owner, key}] = {id, kernel_->subscribe(Pattern::exact(id, key))};
-    }
+    // Callbacks first, then the subscription: a value that arrived before
+    // the callbacks were registered would never be an event (and a fresh
+    // subscription brings the same seqno again, which is no event either).
     kernel_->onChange(Pattern::exact(id, key),
                       [this, owner, key](const Tuple& t) { onValue(owner, key, &t); });
     kernel_->onDelete(Pattern::exact(id, key),
                       [this, owner, key](const Tuple&) { onValue(owner, key, nullptr); });
+    std::lock_guard lock(mu_);
+    watchedSubscriptions_[{owner, key}] = {id, kernel_->subscribe(Pattern::exact(id, key))};
   }
 
   // A watched tuple that has shown no value yet is subscribed to again

@@ -228,6 +228,32 @@ TEST_CASE("Kernel set and get stamp and return tuples", "[unit][kernel]") {
   CHECK_THROWS_MATCHES(k.set("a.*", "x"), peis::Error, HasCode(ErrorCode::InvalidKey));
 }
 
+TEST_CASE("Kernel publish writes like set and returns the seqno", "[unit][kernel]") {
+  peis::Kernel k(testOptions());
+  std::atomic<int> seen{0};
+  std::atomic<std::uint64_t> lastSeen{0};
+  k.onChange(peis::Pattern::exact(kId, "stream"), [&](const peis::Tuple& t) {
+    lastSeen = t.seqno;
+    ++seen;
+  });
+  CHECK(k.publish("stream", "a") == 1);
+  peis::WriteOptions w;
+  w.mimetype = "application/json";
+  CHECK(k.publish("stream", "[2]", w) == 2);
+  CHECK(k.set("stream", "c").seqno == 3);  // one sequence with set
+  CHECK(k.publish("stream", std::string(70000, 'x')) == 4);
+  const auto stored = k.get("stream");
+  REQUIRE(stored.has_value());
+  CHECK(stored->seqno == 4);
+  CHECK(stored->data.size() == 70000);
+  CHECK(stored->mimetype == peis::kDefaultMimetype);
+  CHECK(stored->owner == kId);
+  CHECK(stored->ts_write != peis::kNoTime);
+  CHECK_THROWS_MATCHES(k.publish("bad key", "x"), peis::Error, HasCode(ErrorCode::InvalidKey));
+  CHECK(waitFor([&] { return seen == 4; }, 10s));  // every write delivered, in order
+  CHECK(lastSeen == 4);
+}
+
 TEST_CASE("Kernel find returns the live tuples a pattern matches", "[unit][kernel]") {
   peis::Kernel k(testOptions());
   k.set("sensor.temp", "21");

@@ -95,6 +95,10 @@ class Kernel {
   // --- writes ---------------------------------------------------------------
   // Sets a tuple in this PEIS's namespace; returns it as stamped.
   Tuple set(std::string_view key, std::string data, const WriteOptions& options = {});
+  // The same, returning only the seqno it was stamped with: no copy of the
+  // tuple (of its data) is made for the caller. For publishers of streams
+  // and of big values.
+  std::uint64_t publish(std::string_view key, std::string data, const WriteOptions& options = {});
   // Sets a tuple of any owner and returns once the owner accepted it (the
   // returned tuple carries the owner's seqno). Throws Error(Unreachable /
   // Timeout / the owner's error). On the kernel thread: Error(WouldDeadlock),

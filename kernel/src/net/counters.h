@@ -3,6 +3,7 @@
 // reports them as peis::NetworkStats.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 
 namespace peis::net {
@@ -10,6 +11,9 @@ namespace peis::net {
 struct Counters {
   std::uint64_t framesIn = 0;
   std::uint64_t framesOut = 0;
+  // Frames sent by direct sends (Link::sendNow), from any thread; part of
+  // framesOut in NetworkStats.
+  std::atomic<std::uint64_t> directFramesOut{0};
   std::uint64_t malformedFrames = 0;
   std::uint64_t garbagePeersDisconnected = 0;
   std::uint64_t foreignEcologyRejected = 0;

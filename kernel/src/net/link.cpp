@@ -1,7 +1,12 @@
 // Link: one TCP connection's reads and writes; see link.h.
 #include "net/link.h"
 
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <sys/socket.h>
+
 #include <algorithm>
+#include <boost/asio/post.hpp>
 #include <boost/asio/write.hpp>
 #include <cstring>
 
@@ -55,7 +60,8 @@ void Link::start(const wire::Hello& hello) {
 }
 
 void Link::sendFrame(std::string_view frame) {
-  if (closed_) return;
+  MutexLock lock(writeMu_);
+  if (writeClosed_) return;
   appendable(frame.size()).append(frame);
   queued_ += frame.size();
   ++counters_.framesOut;
@@ -64,7 +70,8 @@ void Link::sendFrame(std::string_view frame) {
 
 void Link::sendUpdate(const wire::Envelope& envelope, std::uint64_t incarnation,
                       const std::shared_ptr<const Tuple>& tuple) {
-  if (closed_) return;
+  MutexLock lock(writeMu_);
+  if (writeClosed_) return;
   const auto bytes = wire::tupleUpdateFrameBytes(*tuple);
   if (tuple->data.size() >= wire::kZeroCopyDataBytes) {
     auto& chunk = chunks_.emplace_back();
@@ -79,26 +86,94 @@ void Link::sendUpdate(const wire::Envelope& envelope, std::uint64_t incarnation,
 }
 
 void Link::sendBytes(std::string_view bytes, std::uint32_t frames) {
-  if (closed_ || bytes.empty()) return;
+  MutexLock lock(writeMu_);
+  if (writeClosed_ || bytes.empty()) return;
   queued_ += bytes.size();
   counters_.framesOut += frames;
   appendable(bytes.size()).append(bytes);
   write();
 }
 
+bool Link::lockForDirect(std::size_t mostBacklog) {
+  if (congested_.load(std::memory_order_relaxed)) return false;
+  writeMu_.lock();
+  if (!writeClosed_ && inFlight_ + queued_ <= mostBacklog) return true;
+  writeMu_.unlock();
+  return false;
+}
+
+std::size_t Link::sendNow(std::string_view bytes, const std::shared_ptr<const Tuple>& tail,
+                          std::uint32_t frames) {
+  if (writeClosed_) return 0;
+  const std::string_view data = tail ? std::string_view(tail->data) : std::string_view();
+  const std::size_t size = bytes.size() + data.size();
+  counters_.directFramesOut.fetch_add(frames, std::memory_order_relaxed);
+  std::size_t sent = 0;
+  if (!writing_ && chunks_.empty()) {
+    // Idle: straight to the socket, from this thread (no hand-off to the
+    // kernel thread, no wake-up of it). Never blocks.
+    iovec parts[2] = {{const_cast<char*>(bytes.data()), bytes.size()},
+                      {const_cast<char*>(data.data()), data.size()}};
+    msghdr message{};
+    message.msg_iov = parts;
+    message.msg_iovlen = data.empty() ? 1 : 2;
+    const auto n = ::sendmsg(socket_.native_handle(), &message, MSG_DONTWAIT | MSG_NOSIGNAL);
+    lastSent_ = SteadyClock::now();
+    // An error is left to the kernel thread's write, which closes the link.
+    sent = n > 0 ? static_cast<std::size_t>(n) : 0;
+    if (sent == size) return sent;
+    // The rest waits, and the kernel thread writes it: nobody else writes
+    // meanwhile (writing_), so the bytes stay in order.
+    writing_ = true;
+    writingSince_ = lastSent_;
+    boost::asio::post(socket_.get_executor(), [self = shared_from_this()] { self->resumeWrite(); });
+  }
+  // Behind what is queued or being written (or the rest of the above).
+  if (sent < bytes.size()) {
+    appendable(bytes.size() - sent).append(bytes.substr(sent));
+    if (tail) chunks_.back().tail = tail;
+  } else if (sent < size) {
+    appendable(size - sent).append(data.substr(sent - bytes.size()));
+  }
+  queued_ += size - sent;
+  return sent;
+}
+
+void Link::resumeWrite() {
+  MutexLock lock(writeMu_);
+  writing_ = false;
+  write();
+}
+
 void Link::close(const std::string& reason) {
   if (closed_) return;
   closed_ = true;
-  boost::system::error_code ec;
-  socket_.shutdown(tcp::socket::shutdown_both, ec);
-  socket_.close(ec);
+  {
+    MutexLock lock(writeMu_);  // no direct send is using the socket now, nor will
+    writeClosed_ = true;
+    boost::system::error_code ec;
+    socket_.shutdown(tcp::socket::shutdown_both, ec);
+    socket_.close(ec);
+  }
   auto self = shared_from_this();  // the handler may drop its reference
   handler_.onClosed(*this, reason);
 }
 
 void Link::closeAfterFlush(const std::string& reason) {
-  closeReason_ = reason;
-  if (!writing_) close(reason);
+  bool idle;
+  {
+    MutexLock lock(writeMu_);
+    closeReason_ = reason;
+    idle = !writing_;
+  }
+  if (idle) close(reason);
+}
+
+bool Link::peerAcknowledgesAll() {
+  tcp_info info{};
+  socklen_t size = sizeof info;
+  if (::getsockopt(socket_.native_handle(), IPPROTO_TCP, TCP_INFO, &info, &size) != 0) return false;
+  return info.tcpi_unacked == 0;
 }
 
 bool Link::bytesWaiting() {
@@ -134,7 +209,7 @@ void Link::keepSpareChunk() {
 
 // Writes the queued chunks, several in one gathered write.
 void Link::write() {
-  if (writing_ || closed_) return;
+  if (writing_ || writeClosed_) return;
   std::size_t bytes = 0;
   while (!chunks_.empty() && outChunks_.size() < kGatherChunks && bytes < kGatherBytes) {
     if (chunks_.front().size() > 0) {
@@ -155,15 +230,22 @@ void Link::write() {
   writingSince_ = lastSent_ = SteadyClock::now();  // what is queued goes out now
   asio::async_write(socket_, outBuffers_,
                     [self = shared_from_this()](const boost::system::error_code& ec, std::size_t) {
-                      self->writing_ = false;
-                      self->keepSpareChunk();
-                      self->outChunks_.clear();
-                      self->inFlight_ = 0;
-                      if (ec) return self->close("write failed: " + ec.message());
-                      if (!self->closeReason_.empty() && self->chunks_.empty()) {
-                        return self->close(self->closeReason_);
+                      std::string closeNow;
+                      {
+                        MutexLock lock(self->writeMu_);
+                        self->writing_ = false;
+                        self->keepSpareChunk();
+                        self->outChunks_.clear();
+                        self->inFlight_ = 0;
+                        if (ec) {
+                          closeNow = "write failed: " + ec.message();
+                        } else if (!self->closeReason_.empty() && self->chunks_.empty()) {
+                          closeNow = self->closeReason_;
+                        } else {
+                          self->write();
+                        }
                       }
-                      self->write();
+                      if (!closeNow.empty()) return self->close(closeNow);
                       self->handler_.onWritten(*self);
                     });
 }

@@ -4,9 +4,13 @@
 // data of a big tuple is written from the stored tuple itself). It knows
 // nothing of routing or of what frames mean, beyond their length prefix; the
 // handshake state and the peer's Hello are kept here for the Network.
-// Kernel thread only (the io_context's).
+// Kernel thread only (the io_context's), except sendNow() and
+// takesDirect(), which any thread may call: the write side (the queue, the
+// write under way, the socket's closing) is guarded by the link's own
+// write lock for them (docs/architecture.md, "Direct sends").
 #pragma once
 
+#include <atomic>
 #include <boost/asio/ip/tcp.hpp>
 #include <chrono>
 #include <cstddef>
@@ -16,6 +20,7 @@
 #include <string_view>
 #include <vector>
 
+#include "adaptive_mutex.h"
 #include "net/wire.h"
 
 namespace peis::net {
@@ -68,17 +73,45 @@ class Link : public std::enable_shared_from_this<Link> {
   // Sends what is queued, then closes.
   void closeAfterFlush(const std::string& reason);
 
+  // --- Direct sends, from any thread ------------------------------------------
+  // Takes the write lock if the link takes a direct send: it is open, not
+  // found congested, and holds at most `mostBacklog` bytes; else leaves it
+  // and returns false. What is sent to the link after the lock was taken
+  // (by anybody) queues behind what the holder sends.
+  bool lockForDirect(std::size_t mostBacklog) TRY_ACQUIRE(true, writeMu_);
+  void unlockWrites() RELEASE(writeMu_) { writeMu_.unlock(); }
+  // Sends `frames` whole frames (`bytes`, then `tail`'s data when set, which
+  // ends the last frame) from the calling thread: written to the socket at
+  // once when nothing else is queued or being written (the rest, if the
+  // socket takes only part, is written by the kernel thread), else queued
+  // behind what is. Dropped when the link has closed. Returns the bytes
+  // written at once.
+  std::size_t sendNow(std::string_view bytes, const std::shared_ptr<const Tuple>& tail,
+                      std::uint32_t frames) REQUIRES(writeMu_);
+
   // Bytes queued or being written.
-  std::size_t backlog() const { return inFlight_ + queued_; }
+  std::size_t backlog() const {
+    MutexLock lock(writeMu_);
+    return inFlight_ + queued_;
+  }
   // Bytes have arrived that are not read yet (a sign of life).
   bool bytesWaiting();
+  // The peer's TCP stack has acknowledged everything this end sent (its
+  // host lives and takes our bytes, though its process may be slow).
+  bool peerAcknowledgesAll();
   // Part of a frame has arrived and the rest has not (a big frame in transit).
   bool midFrame() const { return inEnd_ > inPos_ || skip_ > 0; }
   bool closed() const { return closed_; }
   // How long the write under way has been waiting for the peer to take it
   // (zero when none is).
   SteadyClock::duration writeWaiting(SteadyClock::time_point now) const {
+    MutexLock lock(writeMu_);
     return writing_ ? now - writingSince_ : SteadyClock::duration::zero();
+  }
+  // The last write started (by this thread or a direct send).
+  SteadyClock::time_point lastSent() const {
+    MutexLock lock(writeMu_);
+    return lastSent_;
   }
 
   // --- State the Network keeps about the link --------------------------------
@@ -88,7 +121,6 @@ class Link : public std::enable_shared_from_this<Link> {
   bool established_ = false;
   wire::Hello peer_;  // the peer's Hello, once established_
   SteadyClock::time_point lastHeard_;
-  SteadyClock::time_point lastSent_;  // the last write started
   SteadyClock::time_point establishedAt_;
   int malformed_ = 0;
   // The last source whose frames passed the Network's source checks on this
@@ -97,8 +129,8 @@ class Link : public std::enable_shared_from_this<Link> {
   std::uint64_t checkedEpoch_ = 0;
   PeisId dialTarget_ = 0;  // the beacon peer this link was dialled for
   // Found congested by the Network (its backlog over the high-water mark);
-  // cleared when it drains to half.
-  bool congested_ = false;
+  // cleared when it drains to half. Read by takesDirect() on any thread.
+  std::atomic<bool> congested_{false};
 
  private:
   // Frames waiting to be written: bytes, then (when set) a tuple's data,
@@ -108,9 +140,11 @@ class Link : public std::enable_shared_from_this<Link> {
     std::shared_ptr<const Tuple> tail;
     std::size_t size() const { return bytes.size() + (tail ? tail->data.size() : 0); }
   };
-  std::string& appendable(std::size_t bytes);
-  void keepSpareChunk();
-  void write();
+  std::string& appendable(std::size_t bytes) REQUIRES(writeMu_);
+  void keepSpareChunk() REQUIRES(writeMu_);
+  void write() REQUIRES(writeMu_);
+  // Starts the write that a direct send left to this thread.
+  void resumeWrite() EXCLUDES(writeMu_);
   void read();
   void makeReadRoom();
   void parse();
@@ -124,16 +158,21 @@ class Link : public std::enable_shared_from_this<Link> {
   std::size_t inCapacity_ = 0;
   std::size_t readRoom_;
   std::size_t inPos_ = 0, inEnd_ = 0;
-  std::size_t skip_ = 0;          // bytes of an oversized frame still to be skipped
-  std::vector<Chunk> outChunks_;  // being written
-  std::string spareChunk_;        // the memory of a written chunk, for the next
-  std::vector<boost::asio::const_buffer> outBuffers_;
-  std::size_t inFlight_ = 0;
-  std::deque<Chunk> chunks_;
-  std::size_t queued_ = 0;
-  bool writing_ = false;
-  SteadyClock::time_point writingSince_;
-  std::string closeReason_;
+  std::size_t skip_ = 0;  // bytes of an oversized frame still to be skipped
+  // --- The write side: the kernel thread and direct senders -----------------------
+  mutable AdaptiveMutex writeMu_;
+  bool writeClosed_ GUARDED_BY(writeMu_) = false;      // the socket is closed (or closing)
+  std::vector<Chunk> outChunks_ GUARDED_BY(writeMu_);  // being written
+  std::string spareChunk_ GUARDED_BY(writeMu_);        // a written chunk's memory, for the next
+  std::vector<boost::asio::const_buffer> outBuffers_ GUARDED_BY(writeMu_);
+  std::size_t inFlight_ GUARDED_BY(writeMu_) = 0;
+  std::deque<Chunk> chunks_ GUARDED_BY(writeMu_);
+  std::size_t queued_ GUARDED_BY(writeMu_) = 0;
+  // A write is under way, or a direct send left one to the kernel thread.
+  bool writing_ GUARDED_BY(writeMu_) = false;
+  SteadyClock::time_point writingSince_ GUARDED_BY(writeMu_);
+  SteadyClock::time_point lastSent_ GUARDED_BY(writeMu_);  // the last write started
+  std::string closeReason_ GUARDED_BY(writeMu_);
 };
 
 }  // namespace peis::net

@@ -40,6 +40,9 @@ constexpr std::chrono::milliseconds kDialMaxDelay{1000};
 constexpr std::chrono::milliseconds kRecomputeDelay{20};  // recomputes at most every 20 ms
 constexpr std::chrono::seconds kHoldFor{3};  // how long a frame waits for its source's route
 constexpr std::size_t kMaxHeldFrames = 1024;
+// How many liveness times a silent peer whose host still acknowledges our
+// bytes is given (see pingLoop).
+constexpr int kSlowPeerGrace = 4;
 
 }  // namespace
 
@@ -77,6 +80,11 @@ class Network::Impl final : public LinkHandler {
   bool blocked(PeisId destination);
   void cutOff(PeisId destination, const std::string& reason);
   bool reachable(PeisId id) const { return table_.contains(id); }
+  std::shared_ptr<Link> linkTowards(PeisId destination) const {
+    const PeisId next = table_.nextHop(destination);
+    return next == 0 ? nullptr : linkTo(next);
+  }
+  std::size_t congestedAboveBytes() const { return config_.coalesceAboveBytes; }
   std::uint16_t listenPort() const {
     boost::system::error_code ec;
     const auto endpoint = acceptor_.local_endpoint(ec);
@@ -165,6 +173,7 @@ class Network::Impl final : public LinkHandler {
   std::optional<SteadyClock::time_point> holdArmed_;
   std::function<void()> closed_;  // after stop(): runs once no link is left
   bool pruneArmed_ = false;
+  SteadyClock::time_point hostBusyUntil_;  // see pingLoop
   bool dialsPending_ = false;
   SteadyClock::time_point dialsFirstAsked_;
   Throttle recomputeThrottle_{io_}, advertThrottle_{io_};
@@ -384,6 +393,10 @@ void Network::Impl::onFrame(Link& link, std::string_view frame) {
     }
     return onRouted(link, frame);
   }
+  // The routed messages that came before this link message in the same read
+  // go first: a PEIS that answers a write and then leaves must not be seen
+  // gone (its Leave, which fails the write) before its answer.
+  flushInbox();
   auto result = wire::decode(frame, config_.maxDataBytes);
   if (!result.message) return onMalformed(link, result.error);
   auto& message = std::get<wire::LinkMessage>(*result.message);
@@ -510,12 +523,33 @@ void Network::Impl::pingLoop() {
     if (ec || stopped_) return;
     retryHeld();  // ages out frames whose source never became routable
     const auto now = SteadyClock::now();
+    // This timer running a whole period late says the host is overloaded:
+    // its processes (the peers too) wait for a core. For a while the
+    // liveness check then gives peers that are slow rather than gone more
+    // time (below).
+    if (now - pingTimer_.expiry() > config_.pingPeriod) {
+      hostBusyUntil_ = now + config_.deadAfter * kSlowPeerGrace;
+    }
+    const bool hostBusy = now < hostBusyUntil_;
     auto links = links_;
     for (auto& link : links) {
       // Bytes waiting in the socket are a sign of life too: after this
       // thread was starved (a busy host), the timer can run before the reads.
-      if (now - link->lastHeard_ > config_.deadAfter && !link->bytesWaiting()) {
-        link->close("silent for more than " + std::to_string(config_.deadAfter.count()) + " ms");
+      // On an overloaded host (a join of hundreds of PEIS on two cores:
+      // processes wait seconds for a core), a peer whose host still
+      // acknowledges every byte sent to it (our pings) is slow, not gone:
+      // closing its link, which is fine, and re-linking would feed the
+      // load. It gets kSlowPeerGrace times the liveness time. A peer whose
+      // host is gone leaves our bytes unacknowledged, and on a host that is
+      // not overloaded a frozen peer is closed, both as before.
+      const auto silent = now - link->lastHeard_;
+      if (silent > config_.deadAfter && !link->bytesWaiting() &&
+          (silent > config_.deadAfter * kSlowPeerGrace || !hostBusy ||
+           !link->peerAcknowledgesAll())) {
+        link->close(
+            "silent for more than " +
+            std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(silent).count()) +
+            " ms");
         continue;
       }
       // A peer that stopped reading: its link stays congested and takes
@@ -535,7 +569,7 @@ void Network::Impl::pingLoop() {
       // So does one that receives a big frame and sends nothing: the peer
       // sending it hears nothing else, and its own Ping waits behind the frame.
       const bool quiet = now - link->lastHeard_ >= config_.pingPeriod ||
-                         (link->midFrame() && now - link->lastSent_ >= config_.pingPeriod);
+                         (link->midFrame() && now - link->lastSent() >= config_.pingPeriod);
       if (!link->established_ || !quiet) continue;
       sendLinkMessage(*link,
                       wire::Ping{static_cast<std::uint64_t>(now.time_since_epoch().count())});
@@ -984,6 +1018,10 @@ void Network::cutOff(PeisId destination, const std::string& reason) {
   impl_->cutOff(destination, reason);
 }
 bool Network::reachable(PeisId id) const { return impl_->reachable(id); }
+std::shared_ptr<Link> Network::linkTowards(PeisId destination) const {
+  return impl_->linkTowards(destination);
+}
+std::size_t Network::congestedAboveBytes() const { return impl_->congestedAboveBytes(); }
 std::vector<PeerInfo> Network::peers() const { return impl_->peers(); }
 std::vector<LinkInfo> Network::links() const { return impl_->links(); }
 const Counters& Network::counters() const { return impl_->counters_; }

@@ -23,6 +23,8 @@
 
 namespace peis::net {
 
+class Link;
+
 struct NetworkConfig {
   std::string ecology = "default";
   std::string name;
@@ -118,6 +120,12 @@ class Network {
   // Sends `count` whole routed frames for `destination`, already encoded
   // with this PEIS as their source (copied into the link's write buffer).
   bool sendFrames(PeisId destination, std::string_view frames, std::uint32_t count);
+
+  // The link of `destination`'s next hop (null when none), for direct sends
+  // from other threads (Link::sendNow); valid until the next onTopology.
+  std::shared_ptr<Link> linkTowards(PeisId destination) const;
+  // The backlog above which a link counts as congested (coalesceAboveBytes).
+  std::size_t congestedAboveBytes() const;
 
   bool reachable(PeisId id) const;
   std::vector<PeerInfo> peers() const;
