@@ -27,14 +27,20 @@ class Child {
     int fds[2];
     if (pipe2(fds, O_CLOEXEC) != 0) throw std::runtime_error("pipe failed");
     std::vector<char*> argv;
-    static std::string self = "/proc/self/exe";
+    // The program's path as read from the link (under valgrind that is the
+    // program's, not valgrind's, so `--trace-children=yes` profiles the peers).
+    static std::string self = [] {
+      char path[4096];
+      const auto n = readlink("/proc/self/exe", path, sizeof path - 1);
+      return n > 0 ? std::string(path, static_cast<std::size_t>(n)) : std::string("/proc/self/exe");
+    }();
     argv.push_back(self.data());
     for (auto& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
     posix_spawn_file_actions_t actions;
     posix_spawn_file_actions_init(&actions);
     posix_spawn_file_actions_adddup2(&actions, fds[1], 1);  // dup2 clears close-on-exec
-    const int error = posix_spawn(&pid_, "/proc/self/exe", &actions, nullptr, argv.data(), environ);
+    const int error = posix_spawn(&pid_, self.c_str(), &actions, nullptr, argv.data(), environ);
     posix_spawn_file_actions_destroy(&actions);
     close(fds[1]);
     if (error != 0) {

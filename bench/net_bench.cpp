@@ -20,6 +20,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <map>
@@ -52,13 +53,22 @@ std::map<std::string, std::string> parseFlags(int argc, char** argv) {
 
 using peis::bench::Child;
 
-peis::Options hostOptions(const std::string& ecology, int id, bool discovery = false) {
+// A PEIS of the benchmark; with `credentials`, of the secured ecology they
+// are for (which then names the ecology).
+peis::Options hostOptions(const std::string& ecology, int id, bool discovery = false,
+                          const std::string& credentials = "") {
   peis::Options options;
-  options.ecology = ecology;
+  if (credentials.empty()) options.ecology = ecology;
+  options.credentials = credentials;
   options.id = id;
   options.name = "bench";
   options.discovery = discovery;
   return options;
+}
+
+std::string credentialsFlag(const std::map<std::string, std::string>& flags) {
+  const auto it = flags.find("--credentials");
+  return it == flags.end() ? std::string() : it->second;
 }
 
 bool waitFor(const std::function<bool()>& condition, std::chrono::milliseconds deadline) {
@@ -109,7 +119,8 @@ int roleTcpEcho() {
 }
 
 int rolePeisEcho(const std::map<std::string, std::string>& flags) {
-  peis::Options options = hostOptions(flags.at("--ecology"), std::stoi(flags.at("--id")));
+  peis::Options options = hostOptions(flags.at("--ecology"), std::stoi(flags.at("--id")), false,
+                                      credentialsFlag(flags));
   options.connect.push_back("127.0.0.1:" + flags.at("--connect"));
   peis::Kernel kernel(options);
   const int peer = std::stoi(flags.at("--peer"));
@@ -125,7 +136,8 @@ int rolePeisEcho(const std::map<std::string, std::string>& flags) {
 // the last delivery is taken by a 1 ms timer that sees the count change (no
 // clock read per update; it can only be late, which lowers the rate).
 int roleSink(const std::map<std::string, std::string>& flags) {
-  peis::Options options = hostOptions(flags.at("--ecology"), std::stoi(flags.at("--id")));
+  peis::Options options = hostOptions(flags.at("--ecology"), std::stoi(flags.at("--id")), false,
+                                      credentialsFlag(flags));
   options.connect.push_back("127.0.0.1:" + flags.at("--connect"));
   peis::Kernel kernel(options);
   const int peer = std::stoi(flags.at("--peer"));
@@ -202,12 +214,14 @@ Percentiles tcpRoundTrip(std::size_t bytes, int count) {
   return percentiles(micros);
 }
 
-Percentiles peisRoundTrip(std::size_t bytes, int count, const std::string& ecology) {
-  peis::Kernel kernel(hostOptions(ecology, 1));
+Percentiles peisRoundTrip(std::size_t bytes, int count, const std::string& ecology,
+                          const std::string& credentials = "") {
+  peis::Kernel kernel(hostOptions(ecology, 1, false, credentials));
   Child echo([&] {
     auto args = std::vector<std::string>{
         "--role", "peis-echo", "--ecology", ecology,     "--id",
         "2",      "--peer",    "1",         "--connect", std::to_string(kernel.port())};
+    if (!credentials.empty()) args.insert(args.end(), {"--credentials", credentials});
     return args;
   }());
   std::mutex mu;
@@ -246,13 +260,17 @@ struct Throughput {
 };
 
 Throughput streamTo(std::size_t bytes, int sinks, const std::string& ecology,
-                    std::chrono::milliseconds writeFor) {
-  peis::Kernel kernel(hostOptions(ecology, 1));
+                    std::chrono::milliseconds writeFor, const std::string& credentials = "") {
+  peis::Kernel kernel(hostOptions(ecology, 1, false, credentials));
   std::vector<std::unique_ptr<Child>> children;
   for (int i = 0; i < sinks; ++i) {
-    children.push_back(std::make_unique<Child>(std::vector<std::string>{
-        "--role", "sink", "--ecology", ecology, "--id", std::to_string(100 + i), "--peer", "1",
-        "--connect", std::to_string(kernel.port())}));
+    std::vector<std::string> args{"--role",    "sink",
+                                  "--ecology", ecology,
+                                  "--id",      std::to_string(100 + i),
+                                  "--peer",    "1",
+                                  "--connect", std::to_string(kernel.port())};
+    if (!credentials.empty()) args.insert(args.end(), {"--credentials", credentials});
+    children.push_back(std::make_unique<Child>(args));
   }
   for (int i = 0; i < sinks; ++i) kernel.subscribe(peis::Pattern::exact(100 + i, "received"));
   waitFor(
@@ -422,6 +440,84 @@ ScaleResult scale(int n, const std::string& ecology) {
   return result;
 }
 
+// The time from starting a PEIS that dials a running one to the link being
+// established at both ends (in this process), p50 of `rounds`: with
+// credentials, the secured handshake (key exchange, certificates,
+// signatures) is in it.
+double linkSetupMillis(const std::string& ecology, const std::string& credentials, int rounds) {
+  peis::Kernel server(hostOptions(ecology, 1, false, credentials));
+  std::vector<double> millis;
+  for (int i = 0; i < rounds; ++i) {
+    auto options = hostOptions(ecology, 2 + i, false, credentials);
+    options.connect.push_back("127.0.0.1:" + std::to_string(server.port()));
+    const auto start = Clock::now();
+    peis::Kernel client(options);
+    const bool linked = waitFor(
+        [&] {
+          bool both = false;
+          for (const auto& p : server.peers()) both |= p.id == 2 + i;
+          if (!both) return false;
+          for (const auto& p : client.peers()) {
+            if (p.id == 1) return true;
+          }
+          return false;
+        },
+        10s);
+    if (linked) {
+      millis.push_back(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
+    }
+  }
+  if (millis.empty()) return -1;
+  std::sort(millis.begin(), millis.end());
+  return millis[millis.size() / 2];
+}
+
+double median(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  return values.empty() ? -1 : values[values.size() / 2];
+}
+
+// Open beside secured, in the same run and interleaved (open, secured,
+// open, ...), medians of `reps`: round trip, throughput, the handshake.
+void securityComparison(const std::string& ecology) {
+  const std::string dir = "/tmp/peis-bench-keys-" + std::to_string(getpid());
+  const std::string secured = "bench-secured-" + std::to_string(getpid());
+  peis::createTrustRoot(dir, secured);
+  peis::CredentialsRequest request;
+  request.principal = "bench";
+  request.names = {"*"};
+  const auto credentials = peis::issueCredentials(dir, request).file;
+  std::printf("| security | size | open | secured | secured / open |\n|---|---|---|---|---|\n");
+  const int reps = 3;
+  for (std::size_t bytes : {16u, 1024u, 65536u}) {
+    const int count = bytes >= 65536 ? 500 : 2000;
+    std::vector<double> open, closed;
+    for (int r = 0; r < reps; ++r) {
+      open.push_back(peisRoundTrip(bytes, count, ecology + "-srtt").p50);
+      closed.push_back(peisRoundTrip(bytes, count, secured, credentials).p50);
+    }
+    std::printf("| round trip p50 (us) | %s | %.1f | %.1f | %.2fx |\n", sizeName(bytes).c_str(),
+                median(open), median(closed), median(closed) / median(open));
+    std::fflush(stdout);
+  }
+  for (std::size_t bytes : {16u, 1024u, 65536u}) {
+    std::vector<double> open, closed;
+    for (int r = 0; r < reps; ++r) {
+      open.push_back(streamTo(bytes, 1, ecology + "-stp", 2s).updatesPerSecond);
+      closed.push_back(streamTo(bytes, 1, secured, 2s, credentials).updatesPerSecond);
+    }
+    std::printf("| throughput (updates/s) | %s | %.0f | %.0f | %.2fx |\n", sizeName(bytes).c_str(),
+                median(open), median(closed), median(closed) / median(open));
+    std::fflush(stdout);
+  }
+  const auto openSetup = linkSetupMillis(ecology + "-hs", "", 21);
+  const auto securedSetup = linkSetupMillis(secured, credentials, 21);
+  std::printf("| link set-up, start to linked (ms, p50 of 21) | - | %.2f | %.2f | %.2fx |\n\n",
+              openSetup, securedSetup, securedSetup / openSetup);
+  std::fflush(stdout);
+  std::filesystem::remove_all(dir);
+}
+
 // `sizes` ("16,1024"; empty: all) limits the throughput runs (and for scale, the N), for
 // profiling.
 int runAll(const std::string& what, const std::string& sizes) {
@@ -466,6 +562,7 @@ int runAll(const std::string& what, const std::string& sizes) {
                 r.megabytesPerSecond, static_cast<unsigned long long>(r.coalesced));
     std::fflush(stdout);
   }
+  if (wanted("security")) securityComparison(ecology);
   if (wanted("join")) {
     std::printf(
         "| join | p50 of 5 (ms) |\n|---|---|\n| new PEIS process start -> first value of a "
@@ -508,8 +605,18 @@ int runOnce(const std::string& kind, const std::string& argument) {
     std::printf("%.2f %.2f %.2f\n", p.p50, p.p90, p.p99);
     return p.p50 > 0 ? 0 : 1;
   }
-  if (kind == "peis-stream") {
-    const auto r = streamTo(value, 1, ecology + "-tp", 2s);
+  if (kind == "peis-stream" || kind == "peis-stream-secured") {
+    std::string credentials;
+    const std::string dir = "/tmp/peis-bench-keys-" + std::to_string(getpid());
+    if (kind == "peis-stream-secured") {
+      peis::createTrustRoot(dir, ecology + "-sec");
+      peis::CredentialsRequest request;
+      request.principal = "bench";
+      request.names = {"*"};
+      credentials = peis::issueCredentials(dir, request).file;
+    }
+    const auto r = streamTo(value, 1, ecology + "-tp", 2s, credentials);
+    if (!credentials.empty()) std::filesystem::remove_all(dir);
     std::printf(
         "%.0f %llu %llu %llu\n", r.updatesPerSecond, static_cast<unsigned long long>(r.delivered),
         static_cast<unsigned long long>(r.written), static_cast<unsigned long long>(r.coalesced));
@@ -530,11 +637,13 @@ int runOnce(const std::string& kind, const std::string& argument) {
 int main(int argc, char** argv) {
   if (argc > 1 && (std::strcmp(argv[1], "--help") == 0 || std::strcmp(argv[1], "-h") == 0)) {
     std::printf(
-        "Usage: peis-bench-net [all|rtt|throughput|join|scale] [SIZES]\n"
-        "       peis-bench-net once tcp-rtt|peis-rtt|peis-stream SIZE | once scale N\n"
+        "Usage: peis-bench-net [all|rtt|throughput|security|join|scale] [SIZES]\n"
+        "       peis-bench-net once tcp-rtt|peis-rtt|peis-stream|peis-stream-secured SIZE\n"
+        "       peis-bench-net once scale N\n"
         "SIZES (e.g. 16,1024) limits the one-writer throughput runs to those sizes,\n"
         "and for scale (e.g. 200) the numbers of processes.\n"
         "Measures the ecology over loopback beside raw TCP; prints Markdown tables.\n"
+        "`security` measures a secured ecology beside an open one in the same run.\n"
         "`once` prints one measurement as a line of numbers (see run_peer_comparison.sh).\n");
     return 0;
   }

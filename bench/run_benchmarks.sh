@@ -22,11 +22,17 @@ out=$(mktemp)
   echo
   taskset -c 0 "$build/bench/peis-bench-net" rtt
   taskset -c 0 "$build/bench/peis-bench-net" throughput
+  echo "A secured ecology (docs/security.md) beside an open one, interleaved in one run (medians of 3):"
+  echo
+  taskset -c 0 "$build/bench/peis-bench-net" security
   taskset -c 0 "$build/bench/peis-bench-net" join
   echo "### The ecology over loopback — unpinned"
   echo
   "$build/bench/peis-bench-net" rtt
   "$build/bench/peis-bench-net" throughput
+  echo "A secured ecology beside an open one, interleaved in one run (medians of 3):"
+  echo
+  "$build/bench/peis-bench-net" security
   "$build/bench/peis-bench-net" join
   echo "### Scale — unpinned (N processes on one host; pinning N PEIS to one core measures the scheduler)"
   echo

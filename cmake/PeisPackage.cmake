@@ -50,10 +50,11 @@ function(peis_provide_package)
                                    COMPATIBILITY ${PEIS_PACKAGE_COMPATIBILITY})
 endfunction()
 
-# The dependencies a consumer must find: Threads always; yaml-cpp only when
-# peis::component is a static library (a shared one carries its own link).
-# Boost is header-only and private to the kernel's sources: nothing of it is
-# needed to build or link against the package.
+# The dependencies a consumer must find: Threads always; yaml-cpp,
+# libsodium and OpenSSL's libcrypto only when the libraries are static (a
+# shared one carries its own links: the kernel's security layer uses all
+# three, the component library yaml-cpp). Boost is header-only and private to the kernel's sources:
+# nothing of it is needed to build or link against the package.
 function(peis_install_package)
   set(config_dir ${CMAKE_INSTALL_LIBDIR}/cmake/peis)
   get_target_property(component_type peis_component TYPE)
@@ -62,15 +63,19 @@ function(peis_install_package)
   set(kernel_libs "-L\${libdir} -lpeis-kernel")
   set(component_requires "peis-kernel = ${PROJECT_VERSION}")
   if(component_type STREQUAL "STATIC_LIBRARY")
-    set(PEIS_CONFIG_DEPENDENCIES "find_dependency(yaml-cpp)")
+    set(PEIS_CONFIG_DEPENDENCIES "find_dependency(yaml-cpp)\nfind_dependency(OpenSSL COMPONENTS Crypto)")
     set(PEIS_PC_KERNEL_LIBS "${kernel_libs} -pthread")
     set(PEIS_PC_KERNEL_LIBS_PRIVATE "")
+    set(PEIS_PC_KERNEL_REQUIRES "libsodium, libcrypto, yaml-cpp")
+    set(PEIS_PC_KERNEL_REQUIRES_PRIVATE "")
     set(PEIS_PC_COMPONENT_REQUIRES "${component_requires}, yaml-cpp")
     set(PEIS_PC_COMPONENT_REQUIRES_PRIVATE "")
   else()
     set(PEIS_CONFIG_DEPENDENCIES "")
     set(PEIS_PC_KERNEL_LIBS "${kernel_libs}")
     set(PEIS_PC_KERNEL_LIBS_PRIVATE "-pthread")
+    set(PEIS_PC_KERNEL_REQUIRES "")
+    set(PEIS_PC_KERNEL_REQUIRES_PRIVATE "libsodium, libcrypto, yaml-cpp")
     set(PEIS_PC_COMPONENT_REQUIRES "${component_requires}")
     set(PEIS_PC_COMPONENT_REQUIRES_PRIVATE "yaml-cpp")
   endif()

@@ -13,7 +13,7 @@
  * Usage:
  *   simavr_uart_socket --socket PATH [--mcu atmega128] [--freq 16000000]
  *                      [--uart 0] [--time-limit SECONDS] [--fast] [-v]
- *                      FIRMWARE.elf
+ *                      [--eeprom FILE] FIRMWARE.elf
  *
  *  - The MCU and its clock come from the ELF's .mmcu section
  *    (avr_mcu_section.h) when it has one; --mcu and --freq override or
@@ -29,12 +29,15 @@
  *  - The simulation is paced to real time (the AVR's cycle count against
  *    the wall clock), so the firmware's millisecond clock runs at the
  *    speed of the host's; --fast runs as fast as the host can instead.
+ *  - --eeprom FILE: the EEPROM's contents from its first byte (the rest
+ *    stays erased, 0xFF), e.g. a secured radio's keys.
  *  - --time-limit (wall-clock seconds, default 60) ends the run with exit
  *    status 0; SIGTERM and SIGINT too. The firmware stopping (sleep with
  *    interrupts off, or a crash) ends it with status 1. Bad usage: 2.
  */
 #define _POSIX_C_SOURCE 200809L
 
+#include <avr_eeprom.h>
 #include <avr_uart.h>
 #include <errno.h>
 #include <fcntl.h>
@@ -94,7 +97,8 @@ static int usage(const char *msg) {
   note("error: %s", msg);
   fputs(
       "usage: simavr_uart_socket --socket PATH [--mcu NAME] [--freq HZ] [--uart N]\n"
-      "                          [--time-limit SECONDS] [--fast] [-v] FIRMWARE.elf\n",
+      "                          [--time-limit SECONDS] [--fast] [-v] [--eeprom FILE]\n"
+      "                          FIRMWARE.elf\n",
       stderr);
   return 2;
 }
@@ -233,10 +237,37 @@ static void service_socket(int timeout_ms) {
   }
 }
 
+/* ---- the EEPROM ------------------------------------------------------------ */
+
+static int load_eeprom(const char *path) {
+  static uint8_t bytes[4096];
+  avr_eeprom_desc_t desc;
+  size_t n;
+  FILE *f = fopen(path, "rb");
+  if (f == NULL) {
+    note("error: cannot open the EEPROM image %s: %s", path, strerror(errno));
+    return 1;
+  }
+  n = fread(bytes, 1, sizeof bytes, f);
+  fclose(f);
+  /* simavr's EEPROM ioctls answer -1 even when they worked: read back. */
+  desc.ee = bytes;
+  desc.offset = 0;
+  desc.size = (uint32_t)n;
+  if (n > 0) avr_ioctl(g.avr, AVR_IOCTL_EEPROM_SET, &desc);
+  desc.ee = NULL;
+  avr_ioctl(g.avr, AVR_IOCTL_EEPROM_GET, &desc);
+  if (n == 0 || desc.ee == NULL || memcmp(desc.ee, bytes, n) != 0) {
+    note("error: cannot load %s into the EEPROM", path);
+    return 1;
+  }
+  return 0;
+}
+
 /* ---- main -------------------------------------------------------------- */
 
 int main(int argc, char **argv) {
-  const char *socket_path = NULL, *elf = NULL, *mcu = NULL;
+  const char *socket_path = NULL, *elf = NULL, *mcu = NULL, *eeprom = NULL;
   unsigned long freq = 0;
   char uart = '0';
   double time_limit = 60.0, start, wall;
@@ -257,6 +288,8 @@ int main(int argc, char **argv) {
       return usage("an option lacks its value");
     } else if (strcmp(a, "--socket") == 0) {
       socket_path = argv[++i];
+    } else if (strcmp(a, "--eeprom") == 0) {
+      eeprom = argv[++i];
     } else if (strcmp(a, "--mcu") == 0) {
       mcu = argv[++i];
     } else if (strcmp(a, "--freq") == 0) {
@@ -295,6 +328,7 @@ int main(int argc, char **argv) {
   g.avr->log = g.verbose ? LOG_TRACE : LOG_WARNING;
   avr_load_firmware(g.avr, &fw);
   g.avr->frequency = fw.frequency;
+  if (eeprom != NULL && load_eeprom(eeprom) != 0) return 1;
 
   /* No console echo of the USART, no sleeping on polled reception. */
   if (avr_ioctl(g.avr, AVR_IOCTL_UART_GET_FLAGS(uart), &flags) != 0) {

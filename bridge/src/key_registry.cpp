@@ -152,6 +152,7 @@ KeyRegistry::KeyRegistry(const std::string& path) : path_(path) {
          "CREATE TABLE IF NOT EXISTS peis_tiny_keys ("
          " name TEXT PRIMARY KEY NOT NULL,"
          " idx INTEGER UNIQUE NOT NULL CHECK (idx BETWEEN 1 AND 65535))");
+    exec(db_, path_, "CREATE TABLE IF NOT EXISTS peis_tiny_radio_counter (value INTEGER NOT NULL)");
     Statement all(db_, path_, "SELECT name, idx FROM peis_tiny_keys");
     while (all.step()) {
       const auto* text = sqlite3_column_text(all.get(), 0);
@@ -265,6 +266,26 @@ std::vector<std::pair<std::string, KeyIndex>> KeyRegistry::entries() const {
   std::vector<std::pair<std::string, KeyIndex>> out;
   for (const auto& [index, name] : byIndex_) out.emplace_back(name, index);
   return out;
+}
+
+std::uint32_t KeyRegistry::radioCounter() const {
+  Statement read(db_, path_, "SELECT max(value) FROM peis_tiny_radio_counter");
+  if (!read.step() || sqlite3_column_type(read.get(), 0) == SQLITE_NULL) return 0;
+  return static_cast<std::uint32_t>(sqlite3_column_int64(read.get(), 0));
+}
+
+void KeyRegistry::setRadioCounter(std::uint32_t value) {
+  exec(db_, path_, "BEGIN");
+  try {
+    exec(db_, path_, "DELETE FROM peis_tiny_radio_counter");
+    Statement add(db_, path_, "INSERT INTO peis_tiny_radio_counter (value) VALUES (?1)");
+    sqlite3_bind_int64(add.get(), 1, value);
+    add.step();
+    exec(db_, path_, "COMMIT");
+  } catch (...) {
+    sqlite3_exec(db_, "ROLLBACK", nullptr, nullptr, nullptr);
+    throw;
+  }
 }
 
 }  // namespace peis::bridge

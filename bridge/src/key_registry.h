@@ -64,6 +64,9 @@ class KeyRegistry {
   KeyIndex intern(std::string_view name);
   // Every (name, index), ordered by index.
   std::vector<std::pair<std::string, KeyIndex>> entries() const;
+  // A secured radio's frame counter, kept here across restarts (0 at first).
+  std::uint32_t radioCounter() const;
+  void setRadioCounter(std::uint32_t value);
   const std::string& path() const { return path_; }
 
  private:

@@ -41,6 +41,11 @@ std::string usage() {
          "  --write-timeout-ms N a write a node did not confirm by then fails (default " +
          std::to_string(TINY_WRITE_DEADLINE_MS) +
          ")\n"
+         "  --radio-keys FILE    secures the radio (docs/security.md): the bridge's key\n"
+         "                       and one per node it vouches for (YAML, secret); frames\n"
+         "                       of other nodes, unsecured, forged or replayed are dropped\n"
+         "  --max-unregistered-nodes N  on an open radio, proxies for nodes the seed\n"
+         "                       does not name, at most (default 16)\n"
          "  --help               this text\n"
          "\n"
          "Environment: TINY_LOSS, TINY_DUP, TINY_DELAY_MS, TINY_JITTER_MS shape the\n"
@@ -71,7 +76,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   if (config.peis.help) {
-    std::cout << usage() << "\nPEIS options:\n" << peis::Options::helpText();
+    std::cout << usage() << "\n" << peis::Options::helpText();
     return 0;
   }
   for (int i = 1; i < argc; ++i) {
@@ -97,6 +102,11 @@ int main(int argc, char** argv) {
     } else if (arg == "--write-timeout-ms" && value != nullptr) {
       if (!number(value, 3600000, &n) || n < 10) return bad("takes 10..3600000");
       config.writeDeadline = std::chrono::milliseconds(n);
+    } else if (arg == "--radio-keys" && value != nullptr) {
+      config.radioKeysPath = value;
+    } else if (arg == "--max-unregistered-nodes" && value != nullptr) {
+      if (!number(value, 65534, &n)) return bad("takes 0..65534");
+      config.maxUnregisteredNodes = n;
     } else {
       return bad(value == nullptr && arg.rfind("--", 0) == 0 ? "needs a value or is unknown"
                                                              : "unknown argument");
@@ -124,7 +134,9 @@ int main(int argc, char** argv) {
               << " stale " << s.tuplesStale << ", forwarded " << s.tuplesForwarded << " unmappable "
               << s.forwardUnmappable << ", writes sent " << s.writesSent << " confirmed "
               << s.writesConfirmed << " failed " << s.writesFailed << " refused " << s.writesRefused
-              << ", nodes joined " << s.nodesJoined << " left " << s.nodesLeft << std::endl;
+              << ", nodes joined " << s.nodesJoined << " left " << s.nodesLeft << " refused "
+              << s.nodesRefused << ", frames refused " << s.framesRefused << ", forged tuples "
+              << s.tuplesForged << std::endl;
     return 0;
   } catch (const peis::Error& e) {
     std::cerr << "peis-tinybridge: " << e.what() << "\n";

@@ -24,6 +24,7 @@
 #include "peis/log.h"
 #include "peis/pattern.h"
 #include "radio_link.h"
+#include "radio_security.h"
 #include "tiny_timing.h"
 #include "tiny_tuple.h"
 
@@ -129,6 +130,8 @@ struct TinyBridge::Impl {
   };
   std::vector<PendingWrite> pending;
 
+  std::unique_ptr<RadioSecurity> security;  // a secured radio; null: open
+  std::set<std::uint16_t> refusedNodes;     // told once in the log
   std::uint16_t frameSeq = 0;
   Clock::time_point lastBeacon;
   BridgeStats counters;
@@ -154,6 +157,14 @@ struct TinyBridge::Impl {
       throw Error(ErrorCode::InvalidArgument, "the bridge's tiny id must be 1..65534");
     if (::pipe2(wake, O_CLOEXEC | O_NONBLOCK) != 0)
       throw Error(ErrorCode::InvalidArgument, "cannot create the bridge's wake pipe");
+    if (!config.radioKeysPath.empty()) {
+      security = std::make_unique<RadioSecurity>(
+          loadRadioKeys(config.radioKeysPath), [this] { return registry.radioCounter(); },
+          [this](std::uint32_t value) { registry.setRadioCounter(value); });
+      kernel.set("tinybridge.radio", "secured");
+    } else {
+      kernel.set("tinybridge.radio", "open");
+    }
     kernel.set("tinybridge.link", link->describe());
     kernel.set("tinybridge.tiny-id", std::to_string(config.tinyId));
     kernel.set("tinybridge.nodes", "");
@@ -192,8 +203,10 @@ struct TinyBridge::Impl {
   }
 
   // --- radio output ---------------------------------------------------------------
-  void sendFrame(const std::uint8_t* buf, std::size_t n) {
+  // `buf` has room for TINY_FRAME_MAX bytes: a secured radio seals in place.
+  void sendFrame(std::uint8_t* buf, std::size_t n) {
     if (n == 0) return;
+    if (security && !security->seal(buf, n)) return;
     if (link->send(Frame(buf, buf + n))) ++counters.framesOut;
   }
 
@@ -240,10 +253,39 @@ struct TinyBridge::Impl {
     return it != seed.nodeNames.end() ? it->second : "tiny-" + std::to_string(id);
   }
 
+  // Whether the bridge makes a proxy PEIS for node `id` (why not, if not).
+  std::optional<std::string> proxyRefusal(std::uint16_t id) {
+    // A node id that a full PEIS of the ecology holds already.
+    for (const auto& peer : kernel.peers()) {
+      if (peer.id == id && !nodes.count(id)) {
+        return "PEIS " + std::to_string(id) + " '" + peer.name + "' holds that id";
+      }
+    }
+    if (security) {
+      if (!security->knows(id)) return "the bridge holds no radio key for it";
+    } else if (!seed.nodeNames.count(id)) {
+      std::size_t unregistered = 0;
+      for (const auto& [known, node] : nodes) unregistered += seed.nodeNames.count(known) ? 0 : 1;
+      if (unregistered >= config.maxUnregisteredNodes) {
+        return std::to_string(unregistered) +
+               " nodes the seed does not name have proxies already (--max-unregistered-nodes)";
+      }
+    }
+    return std::nullopt;
+  }
+
   Node* nodeHeard(std::uint16_t id, Clock::time_point now) {
     if (id == config.tinyId) return nullptr;
     auto it = nodes.find(id);
     if (it == nodes.end()) {
+      if (auto why = proxyRefusal(id)) {
+        ++counters.nodesRefused;
+        if (refusedNodes.insert(id).second && refusedNodes.size() <= 64) {
+          log::warn(kernel.id(),
+                    "tinybridge: no proxy for tiny node " + std::to_string(id) + ": " + *why);
+        }
+        return nullptr;
+      }
       Node node;
       node.id = id;
       auto options = config.peis;
@@ -333,7 +375,27 @@ struct TinyBridge::Impl {
     tiny_frame f;
     tiny_stats decodeStats{};
     ++counters.framesIn;
-    if (tiny_decode_frame(bytes.data(), bytes.size(), &f, &decodeStats) != TINY_DECODE_OK) {
+    std::size_t length = bytes.size();
+    if (security) {
+      if (length >= TINY_FRAME_HEADER_SIZE &&
+          (bytes[TINY_FOFF_SRC] | bytes[TINY_FOFF_SRC + 1] << 8) == config.tinyId) {
+        return;  // our own, heard back
+      }
+      std::string why;
+      if (!security->open(bytes.data(), length, &why)) {
+        ++counters.framesRefused;
+        const auto src =
+            length >= TINY_FRAME_HEADER_SIZE
+                ? static_cast<std::uint16_t>(bytes[TINY_FOFF_SRC] | bytes[TINY_FOFF_SRC + 1] << 8)
+                : std::uint16_t{0};
+        if (refusedNodes.insert(src).second && refusedNodes.size() <= 64) {
+          log::warn(kernel.id(), "tinybridge: dropped a frame from tiny node " +
+                                     std::to_string(src) + ": " + why);
+        }
+        return;
+      }
+    }
+    if (tiny_decode_frame(bytes.data(), length, &f, &decodeStats) != TINY_DECODE_OK) {
       ++counters.framesDropped;
       return;
     }
@@ -353,9 +415,13 @@ struct TinyBridge::Impl {
         break;
       case TINY_FRAME_TUPLE:
         // The bridge listens to every tuple on the air; it mirrors those of
-        // the nodes (not the ones it forwarded itself, src == tinyId).
-        if (auto owner = nodes.find(f.tuple.owner); owner != nodes.end())
-          mirror(owner->second, f.tuple);
+        // the nodes (not the ones it forwarded itself, src == tinyId). A
+        // node speaks for its own tuples only: another's is forged.
+        if (f.tuple.owner != f.src) {
+          ++counters.tuplesForged;
+          break;
+        }
+        mirror(*node, f.tuple);
         break;
       case TINY_FRAME_SUBSCRIBE:
       case TINY_FRAME_UNSUBSCRIBE:
@@ -462,14 +528,16 @@ struct TinyBridge::Impl {
       const auto left = tinyLifetime(t.ts_expire);
       write.request.ts_expire = left == 0 ? 0u : static_cast<std::uint32_t>(std::max(left, 1LL));
     }
-    if (t.data.size() > 255 ||
+    const std::size_t storage = security ? TINY_SECURED_STORAGE : TINY_TUPLE_STORAGE_SIZE;
+    if (t.data.size() > 255 || TINY_SUBKEY_SIZE * key->len + t.data.size() > storage ||
         tiny_tuple_set_key_data(&write.request, &*key, t.data.data(),
                                 static_cast<std::uint8_t>(t.data.size())) != 0) {
       ++counters.writesRefused;
-      decide(Error(ErrorCode::TooLarge,
-                   "a tiny tuple holds at most " +
-                       std::to_string(TINY_TUPLE_STORAGE_SIZE - TINY_SUBKEY_SIZE * key->len) +
-                       " data bytes with this key; " + std::to_string(t.data.size()) + " given"));
+      decide(Error(ErrorCode::TooLarge, "a tiny tuple holds at most " +
+                                            std::to_string(storage - TINY_SUBKEY_SIZE * key->len) +
+                                            " data bytes with this key" +
+                                            (security ? " on a secured radio" : "") + "; " +
+                                            std::to_string(t.data.size()) + " given"));
       return;
     }
     write.decide = decide;
@@ -542,7 +610,8 @@ struct TinyBridge::Impl {
     std::string why;
     auto key = tinyKeyOf(registry, t.key, false, &why);
     tiny_tuple out{};
-    if (!key || t.data.size() > 255 ||
+    const std::size_t storage = security ? TINY_SECURED_STORAGE : TINY_TUPLE_STORAGE_SIZE;
+    if (!key || t.data.size() > 255 || TINY_SUBKEY_SIZE * key->len + t.data.size() > storage ||
         tiny_tuple_set_key_data(&out, &*key, t.data.data(),
                                 static_cast<std::uint8_t>(t.data.size())) != 0) {
       ++counters.forwardUnmappable;

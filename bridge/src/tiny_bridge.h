@@ -42,6 +42,13 @@ struct BridgeConfig {
   std::chrono::milliseconds nodeTimeout{TINY_NODE_TIMEOUT_MS};
   std::chrono::milliseconds writeRetry{TINY_WRITE_RETRY_MS};
   std::chrono::milliseconds writeDeadline{TINY_WRITE_DEADLINE_MS};
+  // A secured radio (docs/security.md): the YAML file of the radio keys
+  // ("" = an open radio). The bridge then vouches for the nodes it holds a
+  // key of, and for no other.
+  std::string radioKeysPath;
+  // On an open radio: proxies for nodes not named in the seed's `nodes:`,
+  // at most (a made-up node id costs a PEIS each).
+  std::size_t maxUnregisteredNodes = 16;
 };
 
 // Counters (tinybridge.stats shows them too).
@@ -52,6 +59,11 @@ struct BridgeStats {
   std::uint64_t forwardUnmappable = 0;  // owner id over 65534, unknown key part, too large
   std::uint64_t writesSent = 0, writesConfirmed = 0, writesFailed = 0, writesRefused = 0;
   std::uint64_t nodesJoined = 0, nodesLeft = 0, servedSubscriptions = 0, keysAdded = 0;
+  // Limits and the secured radio (docs/security.md): nodes given no proxy
+  // (over --max-unregistered-nodes, not vouched for, or an id a full PEIS
+  // holds), frames refused (unsecured, unknown sender, bad MAC, replayed),
+  // a node's tuple frames naming another owner, writes too long to seal.
+  std::uint64_t nodesRefused = 0, framesRefused = 0, tuplesForged = 0;
 };
 
 class TinyBridge {

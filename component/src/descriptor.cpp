@@ -36,6 +36,15 @@ void onlyKeys(std::string_view origin, const YAML::Node& map, const std::set<std
   }
 }
 
+// The value of a required key; when it is missing, the error names the line
+// of the mapping that lacks it.
+YAML::Node field(std::string_view origin, const YAML::Node& map, const char* key,
+                 const std::string& what) {
+  const YAML::Node node = map[key];
+  if (!node) fail(origin, map, what + " is missing");
+  return node;
+}
+
 std::string scalar(std::string_view origin, const YAML::Node& node, const std::string& what) {
   if (!node) fail(origin, node, what + " is missing");
   if (!node.IsScalar()) fail(origin, node, what + " must be a plain value");
@@ -62,8 +71,8 @@ std::string sampleKey(std::string key) {
 
 Port port(std::string_view origin, const YAML::Node& item, const std::string& what, bool input) {
   onlyKeys(origin, item, {"name", "type", "key"}, "an entry of " + what);
-  Port port{keyPart(origin, item["name"], what + " name"),
-            scalar(origin, item["type"], what + " type"), ""};
+  Port port{keyPart(origin, field(origin, item, "name", what + " name"), what + " name"),
+            scalar(origin, field(origin, item, "type", what + " type"), what + " type"), ""};
   std::string problem;
   const auto type = Term::parse(port.type, &problem);
   if (!type) {
@@ -132,7 +141,7 @@ Functionality functionality(std::string_view origin, const YAML::Node& node) {
            {"name", "description", "inputs", "outputs", "preconditions", "activation", "cost"},
            "a functionality");
   Functionality f;
-  f.name = keyPart(origin, node["name"], "functionality name");
+  f.name = keyPart(origin, field(origin, node, "name", "functionality name"), "functionality name");
   if (node["description"]) f.description = scalar(origin, node["description"], "description");
   f.inputs = ports(origin, node["inputs"], "inputs");
   f.outputs = ports(origin, node["outputs"], "outputs");
@@ -196,7 +205,7 @@ Descriptor parseDescriptor(std::string_view text, std::string_view origin) {
 Descriptor descriptorFromNode(const YAML::Node& root, std::string_view origin) {
   onlyKeys(origin, root, {"component", "functionalities"}, "the descriptor");
   Descriptor d;
-  d.component = keyPart(origin, root["component"], "component");
+  d.component = keyPart(origin, field(origin, root, "component", "component"), "component");
   const auto list = root["functionalities"];
   if (list) {
     if (!list.IsSequence()) fail(origin, list, "functionalities must be a list");

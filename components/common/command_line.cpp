@@ -19,7 +19,7 @@ std::optional<int> parsePeisOptions(int& argc, char** argv, const std::string& p
     return 2;
   }
   if (options.help) {
-    std::cout << usage << "\nPEIS options:\n" << Options::helpText();
+    std::cout << usage << "\n" << Options::helpText();
     return 0;
   }
   if (!defaultName.empty() && (options.name.empty() || options.name == options.programName))

@@ -1,5 +1,6 @@
-// peis-demo: the most complete demonstration of what the platform does
-// today, run by `./run demo`. Three PEIS in separate processes talk over the
+// peis-demo: the first demonstration (`./run demo` runs the photo-sofa
+// scenario now); kept as the test integration:demo-reaches-goal for what
+// the scenario does not show. Three PEIS in separate processes talk over the
 // real network stack (TCP on loopback, found by discovery): two light
 // sensors, and a host PEIS running a lamp component whose input, meta tuple
 // mi-brightness, a configurator points at sensor A. Sensor A's process is

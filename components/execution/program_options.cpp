@@ -13,7 +13,7 @@ int parseProgramOptions(int argc, char** argv, const std::string& program, const
   for (int i = 1; i < argc; ++i) {
     const std::string name = argv[i];
     if (name == "--help" || name == "-h") {
-      std::cout << usage << "\nPEIS options:\n" << Options::helpText();
+      std::cout << usage << "\n" << Options::helpText();
       return 0;
     }
     const bool flag = flags.count(name) > 0;

@@ -34,7 +34,9 @@ Options:
                       "GoTo(Pippi, bed) | position(pippi)@Pippi.mi-position; Talk(Pippi, wakeup)"
                       (a plan written later to this PEIS's `plan` tuple runs too)
   --action RULE       NAME=PEIS:GOAL with $1..$9 for the step's arguments, e.g.
-                      Talk=$1-voice:Talk($2); repeatable. Without a rule a step
+                      Talk=$1-voice:Talk($2); or NAME=set:KEY=VALUE: the executor
+                      writes its own tuple KEY (TurnOn=set:LightValue=100) and
+                      the step succeeds; repeatable. Without a rule a step
                       goes to the PEIS its first argument names.
   --link LINK         INFORMATION=PEIS.KEY: the static configuration that
                       serves needs, e.g. position(pippi)=tracker.position.Pippi
@@ -118,6 +120,8 @@ struct Shell {
   std::optional<peis::meta::task::Domain> domain;
   std::optional<peis::meta::task::Problem> problem;
   std::vector<peis::meta::task::Literal> goal;
+  // The task's failed steps so far: what each taught is kept for every replan.
+  std::vector<peis::executor::FailedStep> failures{};
 
   void log(const std::string& line) { std::cerr << "executor: " << line << std::endl; }
 
@@ -188,6 +192,16 @@ struct Shell {
       case Command::Kind::SendGoal: {
         // A PEIS that has not joined yet gets a while (a plan may start first).
         const auto dispatch = c.dispatch;
+        if (!dispatch.setKey.empty()) {  // carried out here: an own tuple written
+          log("sets " + dispatch.setKey + " = " + dispatch.goal);
+          const std::uint64_t seqno = kernel.set(dispatch.setKey, dispatch.goal).seqno;
+          kernel.post([this, seqno, dispatch] {
+            apply(runner.onGoalAccepted(seqno));
+            apply(runner.onStatus({peis::exec::ExecState::Success, seqno,
+                                   dispatch.setKey + "=" + dispatch.goal, ""}));
+          });
+          break;
+        }
         peis::exec::resolvePeer(
             kernel, dispatch.peis, std::chrono::seconds(10),
             [this, dispatch](std::optional<peis::PeisId> id) {
@@ -206,11 +220,15 @@ struct Shell {
       case Command::Kind::RequestPlan: {
         log("replanning after: " + c.text);
         if (domain && problem && !goal.empty()) {
-          // The task planner, from the state the steps done so far reached.
+          // The task planner, from the state the steps done so far reached
+          // and what the failed step's cause tells (its action's on-failure).
+          if (runner.stepIndex() < runner.plan().size())
+            failures.push_back(
+                {runner.plan()[runner.stepIndex()], c.text, runner.completed().size()});
           kernel.post([this] {
             try {
               const auto planned =
-                  peis::executor::planFrom(*domain, *problem, goal, runner.completed());
+                  peis::executor::planFrom(*domain, *problem, goal, runner.completed(), failures);
               log(planned.found ? "new plan: " + planned.text : "no plan: " + planned.text);
               if (planned.found) kernel.set("task.plan", planned.text);
               apply(planned.found ? runner.onPlan(planned.steps) : runner.onNoPlan(planned.text));
@@ -245,6 +263,7 @@ struct Shell {
   void startTask(const std::string& text) {
     try {
       goal = peis::executor::parseTask(text);
+      failures.clear();
       const auto planned = peis::executor::planFrom(*domain, *problem, goal);
       if (!planned.found) {
         log("task " + text + ": no plan: " + planned.text);
@@ -263,6 +282,7 @@ struct Shell {
 
   void startPlan(const std::string& text) {
     goal.clear();
+    failures.clear();
     try {
       auto plan = peis::executor::parsePlan(text);
       log("running plan: " + peis::executor::formatPlan(plan));

@@ -13,14 +13,13 @@
 #include "launcher/child_processes.h"
 #include "launcher/output_tail.h"
 #include "launcher/supervisor.h"
+#include "peis/conventions.h"
 
 namespace peis::launcher {
 
-std::string keys::component(const std::string& name, const char* field) {
-  return "components." + name + "." + field;
-}
-
 namespace {
+
+namespace cv = conventions;
 
 using Clock = std::chrono::steady_clock;
 
@@ -129,16 +128,16 @@ void Launcher::Impl::sync(Entry& e) {
   const Published before = e.published.value_or(Published{"", "", {}, {}, -1});
   const std::string& name = e.file.name;
   if (!e.published || now.pid != before.pid)
-    kernel.set(keys::component(name, "pid"), optionalText(now.pid));
+    kernel.set(cv::launchKey(name, cv::kLaunchPid), optionalText(now.pid));
   if (!e.published || now.exitCode != before.exitCode)
-    kernel.set(keys::component(name, "exitCode"), optionalText(now.exitCode));
+    kernel.set(cv::launchKey(name, cv::kLaunchExitCode), optionalText(now.exitCode));
   if (!e.published || now.restarts != before.restarts)
-    kernel.set(keys::component(name, "restarts"), std::to_string(now.restarts));
+    kernel.set(cv::launchKey(name, cv::kLaunchRestarts), std::to_string(now.restarts));
   // currState last: a watcher of it finds the others matching.
   if (!e.published || now.status != before.status || now.currState != before.currState)
-    kernel.set(keys::component(name, "status"), now.status);
+    kernel.set(cv::launchKey(name, cv::kLaunchStatus), now.status);
   if (!e.published || now.currState != before.currState)
-    kernel.set(keys::component(name, "currState"), now.currState);
+    kernel.set(cv::launchKey(name, cv::kLaunchCurrState), now.currState);
   if (e.published && now.currState != before.currState) {
     log::info(kernel.id(), "launcher: " + name + " " + before.currState + " -> " + now.currState +
                                (now.status != "ok" ? " (" + now.status + ")" : ""));
@@ -175,10 +174,9 @@ void Launcher::Impl::countAlive() {
 void Launcher::Impl::onRequest(const Tuple& t) {
   if (closing) return;
   // components.<name>.reqState
-  const std::string prefix = "components.", suffix = ".reqState";
-  if (t.key.size() <= prefix.size() + suffix.size()) return;
-  const std::string name =
-      t.key.substr(prefix.size(), t.key.size() - prefix.size() - suffix.size());
+  const auto parsed = cv::parseLaunchKey(t.key);
+  if (!parsed || parsed->second != cv::kLaunchReqState) return;
+  const std::string& name = parsed->first;
   const auto it = entries.find(name);
   if (it == entries.end()) {
     log::warn(kernel.id(), "launcher: " + t.key + " written, but there is no component '" + name +
@@ -224,8 +222,8 @@ void Launcher::Impl::onExited(RunId run, int code) {
 
 void Launcher::Impl::flushOutput() {
   for (auto& [name, e] : entries) {
-    if (e.out.takeChanged()) kernel.set(keys::component(name, "stdout"), e.out.text());
-    if (e.err.takeChanged()) kernel.set(keys::component(name, "stderr"), e.err.text());
+    if (e.out.takeChanged()) kernel.set(cv::launchKey(name, cv::kLaunchStdout), e.out.text());
+    if (e.err.takeChanged()) kernel.set(cv::launchKey(name, cv::kLaunchStderr), e.err.text());
   }
 }
 
@@ -259,33 +257,34 @@ Launcher::Launcher(Kernel& kernel, std::vector<ComponentFile> components, Launch
   // Set up on the kernel thread, where every later step runs too.
   kernel.post([impl, names, &ready] {
     Kernel& k = impl->kernel;
-    k.set(keys::kComponents, names);
-    k.set(keys::kFolder, impl->settings.folder);
+    k.set(std::string(cv::kLauncherComponents), names);
+    k.set(std::string(cv::kLauncherFolder), impl->settings.folder);
     for (auto& [name, e] : impl->entries) {
-      k.set(keys::component(name, "executable"), e.file.executable);
-      k.set(keys::component(name, "file"), e.file.file);
-      k.set(keys::component(name, "peisName"), e.file.peisName);
+      k.set(cv::launchKey(name, cv::kLaunchExecutable), e.file.executable);
+      k.set(cv::launchKey(name, cv::kLaunchFile), e.file.file);
+      k.set(cv::launchKey(name, cv::kLaunchPeisName), e.file.peisName);
       if (!e.file.descriptor.empty()) {
         std::ifstream in(e.file.descriptor, std::ios::binary);
         std::stringstream text;
         text << in.rdbuf();
         WriteOptions yaml;
         yaml.mimetype = "application/yaml";
-        k.set(keys::component(name, "descriptor"), text.str(), yaml);
+        k.set(cv::launchKey(name, cv::kLaunchDescriptor), text.str(), yaml);
       }
-      k.set(keys::component(name, "stdout"), "");
-      k.set(keys::component(name, "stderr"), "");
+      k.set(cv::launchKey(name, cv::kLaunchStdout), "");
+      k.set(cv::launchKey(name, cv::kLaunchStderr), "");
       impl->sync(e);
     }
     // Not bound to the id: after an id re-pick the own tuples move, and
     // requests must still reach the launcher.
-    impl->requestCallback = k.onChange(Pattern("components.*.reqState"), [impl](const Tuple& t) {
-      if (t.owner == impl->kernel.id()) impl->onRequest(t);
-    });
+    impl->requestCallback =
+        k.onChange(Pattern(cv::launchKey("*", cv::kLaunchReqState)), [impl](const Tuple& t) {
+          if (t.owner == impl->kernel.id()) impl->onRequest(t);
+        });
     // Every reqState is written (again) now, so the callback applies it: the
     // file's initial state, or a value set before (--peis-set-tuple).
     for (auto& [name, e] : impl->entries) {
-      const std::string key = keys::component(name, "reqState");
+      const std::string key = cv::launchKey(name, cv::kLaunchReqState);
       const auto given = k.get(key);
       k.set(key, given ? given->data : (e.file.startOn ? "on" : "off"));
     }

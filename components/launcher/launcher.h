@@ -2,7 +2,8 @@
 // Supervisor, starts and stops the program through ChildProcesses when
 // components.<name>.reqState is written, and publishes what happens as the
 // tuples components.<name>.{currState,status,pid,exitCode,restarts,stdout,
-// stderr} (docs/operating.md lists them). Everything but the constructor,
+// stderr} (docs/operating.md lists them; their names are in
+// peis/conventions.h, where the meta-level reads them too). Everything but the constructor,
 // stopAll and the destructor runs on the kernel thread.
 #pragma once
 
@@ -16,14 +17,6 @@
 #include "launcher/component_file.h"
 
 namespace peis::launcher {
-
-// Keys of the launcher's own namespace.
-namespace keys {
-inline constexpr const char* kComponents = "launcher.components";
-inline constexpr const char* kFolder = "launcher.folder";
-// components.<name>.<field>
-std::string component(const std::string& name, const char* field);
-}  // namespace keys
 
 struct LauncherSettings {
   std::string folder;                           // where the component files are

@@ -5,23 +5,26 @@
 
 #include <csignal>
 
+#include "peis/conventions.h"
+
 namespace peis::launcher {
 
 const char* currState(Phase phase) {
   switch (phase) {
+    // The constants are string literals: data() is terminated.
     case Phase::Off:
-      return "off";
+      return conventions::kLaunchOff.data();
     case Phase::Starting:
-      return "starting";
+      return conventions::kLaunchStarting.data();
     case Phase::On:
-      return "on";
+      return conventions::kLaunchOn.data();
     case Phase::Stopping:
     case Phase::Killing:
-      return "stopping";
+      return conventions::kLaunchStopping.data();
     case Phase::Restarting:
-      return "restarting";
+      return conventions::kLaunchRestarting.data();
     case Phase::Failed:
-      return "failed";
+      return conventions::kLaunchFailed.data();
   }
   return "?";
 }

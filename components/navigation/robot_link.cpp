@@ -122,13 +122,13 @@ void RobotLink::start() {
   exec::whenPeerKnown(kernel_, settings_.base, [this](PeisId id) {
     base_ = id;
     log("driver " + settings_.base + " is PEIS " + std::to_string(id));
-    kernel_.onChange(Pattern("Odometry", id), [this](const Tuple& t) { onOdometry(t); });
-    kernel_.onChange(Pattern("Bumper", id),
-                     [this](const Tuple& t) { navigator_.onBumper(t.data == "1"); });
-    kernel_.onChange(Pattern("SonarRange", id), [this](const Tuple& t) {
+    kernel_.onValue(Pattern("Odometry", id), [this](const Tuple& t) { onOdometry(t); });
+    kernel_.onValue(Pattern("Bumper", id),
+                    [this](const Tuple& t) { navigator_.onBumper(t.data == "1"); });
+    kernel_.onValue(Pattern("SonarRange", id), [this](const Tuple& t) {
       if (const auto v = exec::parseNumbers(t.data)) navigator_.onSonar(*v);
     });
-    kernel_.onChange(Pattern("Geometry.*", id), [this](const Tuple&) { onGeometry(); });
+    kernel_.onValue(Pattern("Geometry.*", id), [this](const Tuple&) { onGeometry(); });
     for (const char* key : {"Odometry", "Bumper", "SonarRange", "Geometry.*"})
       kernel_.subscribe(Pattern(key, id));
     onGeometry();
@@ -136,11 +136,11 @@ void RobotLink::start() {
   exec::whenPeerKnown(kernel_, settings_.mapServer, [this](PeisId id) {
     mapServer_ = id;
     log("map server " + settings_.mapServer + " is PEIS " + std::to_string(id));
-    kernel_.onChange(Pattern("map", id), [this](const Tuple& t) {
+    kernel_.onValue(Pattern("map", id), [this](const Tuple& t) {
       map_ = t;
       tryMap();
     });
-    kernel_.onChange(Pattern("map.info", id), [this](const Tuple& t) {
+    kernel_.onValue(Pattern("map.info", id), [this](const Tuple& t) {
       mapInfo_ = t;
       tryMap();
     });

@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <sstream>
 
+#include "peis/json_string.h"
+
 namespace peis::recorder {
 namespace {
 
@@ -103,33 +105,16 @@ std::string inspectText(const RecordingSummary& s, const std::string& path) {
   return out.str();
 }
 
-std::string jsonString(const std::string& text) {
-  std::string out = "\"";
-  for (const unsigned char c : text) {
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += static_cast<char>(c);
-    } else if (c < 0x20) {
-      char escaped[8];
-      std::snprintf(escaped, sizeof escaped, "\\u%04x", c);
-      out += escaped;
-    } else {
-      out += static_cast<char>(c);
-    }
-  }
-  return out + "\"";
-}
-
 std::string inspectJson(const RecordingSummary& s, const std::string& path) {
   const double span = spanSeconds(s);
   const auto micros = [](Timestamp t) { return std::to_string(t.time_since_epoch().count()); };
   std::ostringstream out;
-  out << "{\"file\":" << jsonString(path) << ",\"format\":" << jsonString(value(s, "format", ""))
-      << ",\"version\":" << jsonString(value(s, "version", ""))
-      << ",\"ecology\":" << jsonString(value(s, "ecology", ""))
-      << ",\"host\":" << jsonString(value(s, "host", ""))
-      << ",\"recorder\":" << jsonString(value(s, "recorder", ""))
-      << ",\"patterns\":" << jsonString(value(s, "patterns", ""))
+  out << "{\"file\":" << json::quote(path) << ",\"format\":" << json::quote(value(s, "format", ""))
+      << ",\"version\":" << json::quote(value(s, "version", ""))
+      << ",\"ecology\":" << json::quote(value(s, "ecology", ""))
+      << ",\"host\":" << json::quote(value(s, "host", ""))
+      << ",\"recorder\":" << json::quote(value(s, "recorder", ""))
+      << ",\"patterns\":" << json::quote(value(s, "patterns", ""))
       << ",\"started_us\":" << (s.started ? micros(*s.started) : "null")
       << ",\"ended_us\":" << (s.ended ? micros(*s.ended) : "null")
       << ",\"clean\":" << (s.ended ? "true" : "false") << ",\"span_s\":" << fixed(span, 6)
@@ -139,13 +124,13 @@ std::string inspectJson(const RecordingSummary& s, const std::string& path) {
       << ",\"dropped\":" << value(s, "dropped", "0") << ",\"owners\":[";
   bool first = true;
   for (const auto& [id, name] : s.owners) {
-    out << (first ? "" : ",") << "{\"id\":" << id << ",\"name\":" << jsonString(name) << "}";
+    out << (first ? "" : ",") << "{\"id\":" << id << ",\"name\":" << json::quote(name) << "}";
     first = false;
   }
   out << "],\"tuples\":[";
   first = true;
   for (const auto& t : s.tuples) {
-    out << (first ? "" : ",") << "{\"owner\":" << t.owner << ",\"key\":" << jsonString(t.key)
+    out << (first ? "" : ",") << "{\"owner\":" << t.owner << ",\"key\":" << json::quote(t.key)
         << ",\"changes\":" << t.changes << ",\"deletions\":" << t.deletions
         << ",\"bytes\":" << t.bytes
         << ",\"rate_per_s\":" << fixed(rate(t.changes + t.deletions, span), 3)

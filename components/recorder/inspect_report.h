@@ -16,7 +16,4 @@ double spanSeconds(const RecordingSummary& summary);
 std::string inspectText(const RecordingSummary& summary, const std::string& path);
 std::string inspectJson(const RecordingSummary& summary, const std::string& path);
 
-// A JSON string literal of `text` (quotes, backslashes and control bytes escaped).
-std::string jsonString(const std::string& text);
-
 }  // namespace peis::recorder

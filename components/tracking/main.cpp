@@ -36,6 +36,8 @@ const char* kUsage =
     "  --wait-ms N          wait this long for the other cameras' images of a moment\n"
     "                       (default 150)\n"
     "  --max-skew-ms N      images this close in time are one moment (default 50)\n"
+    "  --cost C             the functionality's cost for the configuration planner\n"
+    "                       (default 2; a spare tracker is declared dearer)\n"
     "  --help               this text\n"
     "\n"
     "The PEIS is named 'tracker' unless --peis-name says otherwise.\n";
@@ -85,6 +87,9 @@ int main(int argc, char** argv) {
     } else if (arg == "--max-skew-ms" && value != nullptr) {
       if (!ms(60000)) return bad("takes 1..60000");
       config.maxSkew = std::chrono::microseconds(static_cast<long>(n * 1000));
+    } else if (arg == "--cost" && value != nullptr) {
+      if (!parseNumber(value, 0, 1e6, &n)) return bad("takes 0..1000000");
+      config.cost = n;
     } else {
       return bad(unknownArgument(arg, value));
     }

@@ -7,6 +7,7 @@
 #include "camera/image_tuple.h"
 #include "peis/descriptor.h"
 #include "peis/error.h"
+#include "tracking/tracker_descriptor.h"
 #include "tracking_descriptor.h"
 
 namespace peis::tracking {
@@ -27,20 +28,15 @@ std::string calibrationKeyOf(const std::string& imageKey) {
   return dot == std::string::npos ? "calibration" : imageKey.substr(0, dot) + ".calibration";
 }
 
-Descriptor descriptorFor(int cameras) {
-  Descriptor d = Descriptor::fromYaml(kTrackingDescriptor, "tracking.yaml");
-  auto& inputs = d.functionalities.at(0).inputs;
-  inputs.clear();
-  for (int k = 1; k <= cameras; ++k) inputs.push_back({"camera" + std::to_string(k), "image"});
-  return d;
-}
-
 }  // namespace
 
 TrackerNode::TrackerNode(TrackerConfig config)
     : config_(std::move(config)), detector_(config_.targets, config_.detector) {
   kernel_ = std::make_unique<Kernel>(config_.peis);
-  component_ = std::make_unique<Component>(*kernel_, "tracker", descriptorFor(config_.cameras));
+  component_ = std::make_unique<Component>(
+      *kernel_, "tracker",
+      trackerDescriptor(Descriptor::fromYaml(kTrackingDescriptor, "tracking.yaml"), config_.cameras,
+                        config_.targets, config_.cost));
   cameras_.resize(static_cast<std::size_t>(config_.cameras));
   for (std::size_t k = 0; k < cameras_.size(); ++k) {
     cameras_[k].input = "camera" + std::to_string(k + 1);

@@ -30,6 +30,7 @@ struct TrackerConfig {
   std::chrono::milliseconds freshness{2000};  // an input older than this is not waited for
   std::chrono::milliseconds wait{150};        // for the other cameras' images of a moment
   std::chrono::microseconds maxSkew{50000};   // images this close in time are one moment
+  std::optional<double> cost;                 // the descriptor's cost, when not the template's
   Options peis;
 };
 

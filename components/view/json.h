@@ -14,14 +14,16 @@
 #include <variant>
 #include <vector>
 
+#include "peis/json_string.h"
+
 namespace peis::view::json {
 
-// Appends `text` as a JSON string literal: quotes, escapes, and every byte
-// sequence that is not valid UTF-8 replaced by U+FFFD.
-void appendString(std::string& out, std::string_view text);
-std::string quote(std::string_view text);
-// True when `text` is valid UTF-8 (no overlongs, no surrogates).
-bool isValidUtf8(std::string_view text);
+// String literals: the platform's one JSON escaping (peis/json_string.h):
+// quotes, escapes, and every byte sequence that is not valid UTF-8 replaced
+// by U+FFFD.
+using peis::json::appendString;
+using peis::json::isValidUtf8;
+using peis::json::quote;
 
 // Builds one JSON text; the caller keeps the nesting right, the writer the
 // commas.

@@ -17,6 +17,8 @@
 #include "kernel_impl.h"
 #include "log.h"
 #include "saturating_time.h"
+#include "security/credentials.h"
+#include "security/policy.h"
 
 namespace peis {
 namespace asio = boost::asio;
@@ -39,8 +41,19 @@ const char* versionString() { return "0.1.0"; }
 
 Kernel::Kernel(Options options) {
   options.validate();
+  std::shared_ptr<const security::Credentials> credentials;
+  std::shared_ptr<const security::Policy> policy;
+  if (!options.credentials.empty()) {
+    auto loaded =
+        std::make_shared<security::Credentials>(security::readCredentials(options.credentials));
+    security::applyCredentials(*loaded, options, defaultPeisName(options, 0));
+    credentials = std::move(loaded);
+    policy = std::make_shared<const security::Policy>(options.policy.empty()
+                                                          ? security::Policy::defaults()
+                                                          : security::Policy::load(options.policy));
+  }
   const auto id = pickId(options);
-  impl_ = std::make_unique<Impl>(std::move(options), id);
+  impl_ = std::make_unique<Impl>(std::move(options), id, std::move(credentials), std::move(policy));
   impl_->thread = std::thread([impl = impl_.get()] {
     pthread_setname_np(pthread_self(), "peis-kernel");  // for top -H, perf
     impl->io.run();
@@ -56,7 +69,8 @@ Kernel::Kernel(Options options) {
     impl_->thread.join();
     throw;
   }
-  log::info(id, "started as '" + impl_->name + "' (ecology " + impl_->options.ecology + ")");
+  log::info(id, "started as '" + impl_->name + "' (" + (impl_->credentials ? "secured " : "") +
+                    "ecology " + impl_->options.ecology + ")");
 }
 
 namespace {
@@ -234,7 +248,14 @@ NetworkStats Kernel::networkStats() const {
                          c.idCollisions,
                          c.malformedBeacons,
                          c.beaconsSuppressed,
-                         c.slowPeersDisconnected};
+                         c.slowPeersDisconnected,
+                         c.handshakeTimeouts,
+                         c.connectionsRefused,
+                         c.routesRefused,
+                         c.heldFramesDropped,
+                         c.authRefused,
+                         c.unentitled,
+                         c.directFramesOut.load(std::memory_order_relaxed)};
     MutexLock lock(impl_->mu);
     stats.coalesced += impl_->replication.coalesced();
   };
@@ -244,6 +265,11 @@ NetworkStats Kernel::networkStats() const {
     impl_->onKernelThreadAndWait(read);
   }
   return stats;
+}
+
+AccessStats Kernel::accessStats() const {
+  MutexLock lock(impl_->mu);
+  return impl_->replication.guard().stats();
 }
 
 Tuple Kernel::append(std::string_view key, std::string_view data,
@@ -365,6 +391,13 @@ CallbackHandle Kernel::onDelete(const Pattern& pattern, TupleCallback fn) {
   return impl_->mutate([&](TupleSpace& s, Replication&) {
     return s.addCallback(pattern, kOnDelete,
                          [fn = std::move(fn)](EventKind, const Tuple& t) { fn(t); });
+  });
+}
+
+CallbackHandle Kernel::onValue(const Pattern& pattern, TupleCallback fn) {
+  return impl_->mutate([&](TupleSpace& s, Replication&) {
+    return s.addCallbackWithHeld(pattern,
+                                 [fn = std::move(fn)](EventKind, const Tuple& t) { fn(t); });
   });
 }
 

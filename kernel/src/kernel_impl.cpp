@@ -8,13 +8,11 @@
 #include <cstdlib>
 
 #include "log.h"
+#include "security/policy.h"
 
 namespace peis {
 
-namespace {
-
-std::string pickName(const Options& options, PeisId id) {
-  if (!options.name.empty()) return options.name;
+std::string defaultPeisName(const Options& options, PeisId id) {
   std::string name;
   for (char c : options.programName) {
     name += (static_cast<unsigned char>(c) > 0x20 && static_cast<unsigned char>(c) < 0x7f &&
@@ -25,6 +23,12 @@ std::string pickName(const Options& options, PeisId id) {
   if (name.size() > kMaxNameBytes) name.resize(kMaxNameBytes);
   if (nameProblem(name)) name = "peis-" + std::to_string(id);
   return name;
+}
+
+namespace {
+
+std::string pickName(const Options& options, PeisId id) {
+  return options.name.empty() ? defaultPeisName(options, id) : options.name;
 }
 
 std::string hostName() {
@@ -41,13 +45,17 @@ std::string userName() {
 
 }  // namespace
 
-Kernel::Impl::Impl(Options opts, PeisId pickedId)
+Kernel::Impl::Impl(Options opts, PeisId pickedId,
+                   std::shared_ptr<const security::Credentials> secured,
+                   std::shared_ptr<const security::Policy> policy)
     : options(std::move(opts)),
       id(pickedId),
       name(pickName(options, pickedId)),
       incarnation(static_cast<std::uint64_t>(systemNow().time_since_epoch().count())),
+      credentials(std::move(secured)),
+      initialPolicy(std::move(policy)),
       space(pickedId, systemNow, SpaceLimits{options.maxDataBytes}),
-      replication(space, incarnation, options.subscriptionLease),
+      replication(space, incarnation, options.subscriptionLease, options.limits),
       remoteWrites(io,
                    [this](std::string_view what) {
                      reportThrown(std::string("a write completion threw: ") + std::string(what));
@@ -102,6 +110,8 @@ void Kernel::Impl::publishSpecialTuples() {
     s.setKernelTuple(special::kPeers, "");
     s.setKernelTuple(special::kPort, "0");
     s.setKernelTuple(special::kStarted, std::to_string(incarnation));
+    s.setKernelTuple(special::kDenied, "0 denied");
+    if (initialPolicy) s.setKernelTuple(special::kPolicy, initialPolicy->text());
     s.addCallback(Pattern::exact(id, special::kDoQuit), kOnChange,
                   [this](EventKind, const Tuple& t) {
                     if (t.data == "yes") {

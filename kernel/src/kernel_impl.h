@@ -28,6 +28,7 @@
 #include "net/link.h"
 #include "net/network.h"
 #include "peis/kernel.h"
+#include "quiet_trim.h"
 #include "remote_writes.h"
 #include "replication.h"
 #include "thread_annotations.h"
@@ -36,14 +37,27 @@
 
 namespace peis {
 
+namespace security {
+struct Credentials;
+class Policy;
+}  // namespace security
+
+// The name a PEIS takes without --peis-name: the program name, cleaned.
+std::string defaultPeisName(const Options& options, PeisId id);
+
 struct Kernel::Impl {
-  Impl(Options options, PeisId pickedId);
+  Impl(Options options, PeisId pickedId,
+       std::shared_ptr<const security::Credentials> credentials = nullptr,
+       std::shared_ptr<const security::Policy> policy = nullptr);
 
   // --- Fixed at construction (read from any thread) --------------------------
   const Options options;
   std::atomic<PeisId> id;  // changes only on an id re-pick (kernel thread, mu held)
   const std::string name;
   const std::uint64_t incarnation;
+  // A secured ecology's credentials (null: an open ecology).
+  const std::shared_ptr<const security::Credentials> credentials;
+  const std::shared_ptr<const security::Policy> initialPolicy;  // of a secured PEIS
   boost::asio::io_context io;
   boost::asio::executor_work_guard<boost::asio::io_context::executor_type> work{io.get_executor()};
   std::thread thread;
@@ -92,6 +106,13 @@ struct Kernel::Impl {
   boost::asio::steady_timer retryTimer{io};  // Replication::retryUnanswered
   boost::asio::steady_timer flushTimer{io};  // the next flush of a stream
   boost::asio::steady_timer expiryTimer{io};
+  // Freed memory back to the system after a join, once data is quiet too.
+  QuietTrim quietTrim{io, [this]() -> std::uint64_t {
+                        if (!network) return 0;
+                        const auto& c = network->counters();
+                        return c.framesIn + c.framesOut +
+                               c.directFramesOut.load(std::memory_order_relaxed);
+                      }};
   Timestamp scheduledExpiry = kNoTime;
   std::deque<TupleSpace::Delivery> batch;       // deliveries taken, being run
   std::vector<Replication::Outgoing> outgoing;  // flush's, memory reused

@@ -10,6 +10,7 @@
 #include "kernel_impl.h"
 #include "log.h"
 #include "membership.h"
+#include "security/policy.h"
 
 namespace peis {
 namespace asio = boost::asio;
@@ -37,6 +38,14 @@ void Kernel::Impl::startNetwork() {  // kernel thread
   config.maxDataBytes = options.maxDataBytes;
   config.stalledAfter = options.liveness;
   config.tool = options.tool;
+  config.handshakeTimeout = options.limits.handshake;
+  config.maxConnections = options.limits.maxConnections;
+  config.maxHandshakesPerHost = options.limits.maxHandshakesPerHost;
+  config.maxRoutes = options.limits.maxRoutes;
+  config.maxHeldBytes = options.limits.maxHeldBytes;
+  config.idClaimWindow = options.limits.idClaimWindow;
+  config.relayGrace = options.limits.relayGrace;
+  config.credentials = credentials;
   net::Network::Events events;
   events.onMessages = [this](std::vector<wire::RoutedMessage>&& m) { onMessages(std::move(m)); };
   events.onPeerUp = [this](const net::PeerInfo& p) { onPeerUp(p); };
@@ -44,9 +53,21 @@ void Kernel::Impl::startNetwork() {  // kernel thread
   events.repickId = [this] { return repickId(); };
   events.onWritable = [this] { onWritable(); };
   events.onTopology = [this] { onTopology(); };
+  if (credentials) {
+    events.refuseIdentity = [this](const security::Identity& identity) {
+      MutexLock lock(mu);
+      return replication.guard().refusal(identity);
+    };
+  }
   network = std::make_unique<net::Network>(io, config, id, incarnation, events);
   network->start();
   MutexLock lock(mu);
+  if (credentials) {
+    // The guard asks on the kernel thread, which owns the network.
+    replication.guard().secure(
+        [this](PeisId peer) { return network ? network->identityOf(peer) : nullptr; },
+        *initialPolicy);
+  }
   space.setKernelTuple(special::kPort, std::to_string(network->port()));
   snapshotPeers();
   leaseLoop();
@@ -62,6 +83,7 @@ void Kernel::Impl::stopNetwork(std::function<void()> closed) {  // kernel thread
   }
   retryTimer.cancel();
   flushTimer.cancel();
+  quietTrim.stop();
   remoteWrites.failAll(Error(ErrorCode::Stopped, "the kernel is shutting down"));
   if (network) {
     network->stop(std::move(closed));
@@ -96,6 +118,7 @@ void Kernel::Impl::refreshSubscribersTuple() {
 }
 
 void Kernel::Impl::onTopology() {
+  quietTrim.noteChange();
   MutexLock lock(mu);
   forgetDirectLinks();
   snapshotPeers();
@@ -213,13 +236,22 @@ void Kernel::Impl::onMessages(std::vector<wire::RoutedMessage>&& messages) {
               replication.onWithheld(std::move(body));
             } else if constexpr (std::is_same_v<T, wire::Write>) {
               if (writeGate && body.op == wire::WriteOp::Set && body.tuple.owner == id) {
-                gated.emplace_back(source, std::move(body));
+                // Refused before the gate sees it: a gate may act on it (a
+                // tiny node's proxy sends it to the node).
+                if (auto refusal = replication.admit(source, body)) {
+                  replication.refuseWrite(source, body, *refusal);
+                } else {
+                  gated.emplace_back(source, std::move(body));
+                }
               } else {
                 applyWrite(source, body);
               }
             }
           },
           std::move(message.body));
+    }
+    if (auto denied = replication.guard().takeDeniedText()) {
+      space.setKernelTuple(special::kDenied, std::move(*denied));
     }
     afterMutation();
     if (!gated.empty()) gate = writeGate;

@@ -26,6 +26,14 @@ constexpr std::size_t kMaxWaitingBytes = 16u << 20;
 }  // namespace
 
 void Kernel::Impl::afterMutation(DirectSend* direct) {
+  if (replication.guard().takePolicyChanged()) {
+    // A new policy: what subscribers are sent is asked again, and PEIS
+    // whose credentials it revokes are cut off (on the kernel thread).
+    replication.reauthorize();
+    asio::post(io, [this] {
+      if (network) network->recheckIdentities();
+    });
+  }
   // A handler of received messages delivers and sends itself once it has
   // let go of the lock (Impl::onMessages); anything else posts.
   // (drainInline is the kernel thread's own: read only there.)

@@ -67,7 +67,33 @@ constexpr EnvironmentSetting kEnvironmentSettings[] = {
     {"PEIS_DISCOVERY_PORT", "--peis-discovery-port"},
     {"PEIS_LIVENESS_MS", "--peis-liveness-ms"},
     {"PEIS_MAX_DATA", "--peis-max-data"},
+    {"PEIS_CREDENTIALS", "--peis-credentials"},
+    {"PEIS_POLICY", "--peis-policy"},
 };
+
+// The --peis-max-* and --peis-quota-* flags: counts and byte sizes, 1..kMaxLimit.
+constexpr std::uint64_t kMaxLimit = std::uint64_t{1} << 40;
+struct SizeLimitFlag {
+  const char* flag;
+  std::size_t Limits::*field;
+};
+constexpr SizeLimitFlag kSizeLimitFlags[] = {
+    {"--peis-max-connections", &Limits::maxConnections},
+    {"--peis-max-handshakes-per-host", &Limits::maxHandshakesPerHost},
+    {"--peis-max-routes", &Limits::maxRoutes},
+    {"--peis-max-held-bytes", &Limits::maxHeldBytes},
+    {"--peis-quota-keys", &Limits::quotaKeys},
+    {"--peis-quota-bytes", &Limits::quotaBytes},
+    {"--peis-quota-total-keys", &Limits::quotaTotalKeys},
+    {"--peis-quota-total-bytes", &Limits::quotaTotalBytes},
+};
+
+std::size_t* sizeLimit(Limits& limits, std::string_view flag) {
+  for (const auto& known : kSizeLimitFlags) {
+    if (flag == known.flag) return &(limits.*known.field);
+  }
+  return nullptr;
+}
 
 // Applies one setting of a value-taking flag; `source` names where the value
 // came from (the flag, or the environment variable) for the error message.
@@ -108,6 +134,23 @@ bool applySetting(Options& options, const std::string& flag, const std::string& 
     options.liveness = std::chrono::milliseconds(ms);
   } else if (flag == "--peis-max-data") {
     options.maxDataBytes = parseUnsigned(source, value, kMaxDataBytes);
+  } else if (flag == "--peis-handshake-ms") {
+    const auto ms = parseUnsigned(source, value, 3600000);
+    if (ms < 100) bad(source, "at least 100 ms");
+    options.limits.handshake = std::chrono::milliseconds(ms);
+  } else if (flag == "--peis-credentials") {
+    if (value.empty()) bad(source, "needs a file");
+    options.credentials = value;
+  } else if (flag == "--peis-policy") {
+    if (value.empty()) bad(source, "needs a file");
+    options.policy = value;
+  } else if (flag == "--peis-id-claim-ms") {
+    options.limits.idClaimWindow = std::chrono::milliseconds(parseUnsigned(source, value, 3600000));
+  } else if (flag == "--peis-relay-grace-ms") {
+    options.limits.relayGrace = std::chrono::milliseconds(parseUnsigned(source, value, 60000));
+  } else if (auto* limit = sizeLimit(options.limits, flag)) {
+    *limit = parseUnsigned(source, value, kMaxLimit);
+    if (*limit == 0) bad(source, "at least 1");
   } else {
     return false;
   }
@@ -199,8 +242,13 @@ Options Options::fromArgs(int& argc, char** argv) {
 bool Options::isValueFlag(std::string_view flag) {
   for (const char* known :
        {"--peis-id", "--peis-name", "--peis-port", "--peis-connect", "--peis-set-tuple",
-        "--peis-ecology", "--peis-discovery-port", "--peis-liveness-ms", "--peis-max-data"}) {
+        "--peis-ecology", "--peis-discovery-port", "--peis-liveness-ms", "--peis-max-data",
+        "--peis-handshake-ms", "--peis-id-claim-ms", "--peis-relay-grace-ms", "--peis-credentials",
+        "--peis-policy"}) {
     if (flag == known) return true;
+  }
+  for (const auto& known : kSizeLimitFlags) {
+    if (flag == known.flag) return true;
   }
   return false;
 }
@@ -215,9 +263,27 @@ void Options::validate() const {
     if (auto problem = keyProblem(key)) bad("--peis-set-tuple", *problem);
   }
   checkEcology("--peis-ecology", ecology);
+  if (!policy.empty() && credentials.empty()) {
+    bad("--peis-policy",
+        "a policy needs --peis-credentials (an open ecology authenticates "
+        "nobody, so no policy could tell its PEIS apart)");
+  }
   if (maxDataBytes > kMaxDataBytes) bad("--peis-max-data", "at most 2^31-1 bytes");
   if (liveness.count() < 100 || liveness.count() > 3600000) {
     bad("--peis-liveness-ms", "100..3600000 ms");
+  }
+  if (limits.handshake.count() < 100 || limits.handshake.count() > 3600000) {
+    bad("--peis-handshake-ms", "100..3600000 ms");
+  }
+  if (limits.idClaimWindow.count() < 0 || limits.idClaimWindow.count() > 3600000) {
+    bad("--peis-id-claim-ms", "0..3600000 ms");
+  }
+  if (limits.relayGrace.count() < 0 || limits.relayGrace.count() > 60000) {
+    bad("--peis-relay-grace-ms", "0..60000 ms");
+  }
+  for (const auto& known : kSizeLimitFlags) {
+    const auto value = limits.*known.field;
+    if (value == 0 || value > kMaxLimit) bad(known.flag, "1..2^40");
   }
   // Both travel as u32 milliseconds (a Write's wait, a Subscribe's lease).
   constexpr std::int64_t kMostMs = 0xffffffff;
@@ -242,6 +308,27 @@ std::string Options::helpText() {
          "  --peis-discovery-port P  UDP port of the discovery beacons (default 7700)\n"
          "  --peis-liveness-ms MS    a link silent this long is dead (default 2000)\n"
          "  --peis-max-data BYTES    largest tuple data accepted (default 64 MiB)\n"
+         "  --peis-credentials FILE  join the secured ecology these credentials are for\n"
+         "                           (authenticated, encrypted links; docs/security.md)\n"
+         "  --peis-policy FILE       who may do what with this PEIS's tuples (YAML; with\n"
+         "                           --peis-credentials; default: members all but kernel.*)\n"
+         "Limits against misbehaving peers (docs/security.md):\n"
+         "  --peis-handshake-ms MS   close a connection not through its handshake by then\n"
+         "                           (default 5000)\n"
+         "  --peis-max-connections N connections open at once (default 256)\n"
+         "  --peis-max-handshakes-per-host N  connections of one address in their\n"
+         "                           handshake (default 16)\n"
+         "  --peis-max-routes N      PEIS in the routing table, and routes one\n"
+         "                           neighbour may advertise (default 4096)\n"
+         "  --peis-max-held-bytes B  frames waiting for their source's route (default 4 MiB)\n"
+         "  --peis-quota-keys N      keys one remote writer may hold here (default 1024)\n"
+         "  --peis-quota-bytes B     data bytes one remote writer may hold here (default 64 MiB)\n"
+         "  --peis-quota-total-keys N   ... all remote writers together (default 8192)\n"
+         "  --peis-quota-total-bytes B  ... all remote writers together (default 256 MiB)\n"
+         "  --peis-id-claim-ms MS    how long after start this PEIS gives its id up to an\n"
+         "                           earlier holder (default 10000)\n"
+         "  --peis-relay-grace-ms MS how long a PEIS's frames still come the old way after\n"
+         "                           its route changed (default 2000)\n"
          "  --help, -h               show this help\n"
          "Environment (a flag wins over its variable):\n"
          "  PEIS_ECOLOGY NAME        as --peis-ecology\n"
@@ -249,6 +336,8 @@ std::string Options::helpText() {
          "  PEIS_DISCOVERY_PORT P    as --peis-discovery-port\n"
          "  PEIS_LIVENESS_MS MS      as --peis-liveness-ms\n"
          "  PEIS_MAX_DATA BYTES      as --peis-max-data\n"
+         "  PEIS_CREDENTIALS FILE    as --peis-credentials\n"
+         "  PEIS_POLICY FILE         as --peis-policy\n"
          "  PEIS_DISCOVERY_SCOPE     off | loopback | lan (default lan)\n"
          "  PEIS_LOG LEVEL           quiet | warn | info | debug (default info)\n";
 }

@@ -23,14 +23,20 @@ Tuple withoutData(const Tuple& t) {
 }  // namespace
 
 Replication::Replication(TupleSpace& space, std::uint64_t incarnation,
-                         std::chrono::milliseconds lease)
-    : space_(space), incarnation_(incarnation), lease_(lease), outbox_(space.self(), incarnation) {}
+                         std::chrono::milliseconds lease, const Limits& limits)
+    : space_(space),
+      guard_(limits),
+      incarnation_(incarnation),
+      lease_(lease),
+      outbox_(space.self(), incarnation) {}
 
 void Replication::onLocalEvent(EventKind kind, const TuplePtr& tuple) {
   if (tuple->owner != space_.self()) return;
+  guard_.onOwnEvent(space_.self(), kind, *tuple);
   for (const auto& [subscriber, subscriptions] : remote_) {
     for (const auto& [id, subscription] : subscriptions) {
       if (!subscription.pattern.matchesOwnerAndKey(tuple->owner, tuple->key)) continue;
+      if (subscription.access && !subscription.access->allows(tuple->key)) break;
       if (kind == EventKind::Changed) {
         pushUpdate(subscriber, tuple, subscription.maxDataBytes);
       } else {
@@ -54,9 +60,18 @@ void Replication::onSubscribe(PeisId subscriber, const wire::Subscribe& subscrib
   auto& subscriptions = remote_[subscriber];
   const bool isNew = !subscriptions.count(subscribe.subscription);
   const auto lease = std::chrono::milliseconds(std::max<std::uint32_t>(subscribe.leaseMs, 300));
-  subscriptions.insert_or_assign(subscribe.subscription,
-                                 RemoteSubscription{pattern, now + lease, subscribe.maxDataBytes});
-  const auto matching = space_.find(pattern);
+  auto access = guard_.readAccess(subscriber);
+  subscriptions.insert_or_assign(
+      subscribe.subscription,
+      RemoteSubscription{pattern, now + lease, subscribe.maxDataBytes, access});
+  auto matching = space_.find(pattern);
+  if (access) {  // only what the subscriber may read
+    const auto all = matching.size();
+    std::erase_if(matching, [&](const TuplePtr& t) { return !access->allows(t->key); });
+    if (isNew && matching.size() < all) {
+      guard_.subscriptionFiltered(space_.self(), subscriber, subscribe.keyPattern);
+    }
+  }
   if (!isNew) {
     // A renewal: resend everything only if the subscriber is missing values.
     std::uint64_t sum = 0;
@@ -85,6 +100,7 @@ wire::WriteResult Replication::onWrite(PeisId source, const wire::Write& write) 
       throw Error(ErrorCode::Refused,
                   "PEIS " + std::to_string(space_.self()) + " does not own " + t.fullName());
     }
+    if (auto refusal = admit(source, write)) throw *refusal;
     WriteOptions options;
     options.mimetype = t.mimetype;
     options.encoding = t.encoding;
@@ -110,6 +126,11 @@ wire::WriteResult Replication::onWrite(PeisId source, const wire::Write& write) 
   return result;
 }
 
+std::optional<Error> Replication::admit(PeisId source, const wire::Write& write) {
+  const auto current = space_.get(space_.self(), write.tuple.key);
+  return guard_.checkWrite(space_.self(), source, write, current.get());
+}
+
 void Replication::refuseWrite(PeisId source, const wire::Write& write, const Error& error) {
   wire::WriteResult result;
   result.request = write.request;
@@ -133,6 +154,13 @@ bool Replication::expireLeases(SteadyTime now) {
     it = subscriptions.empty() ? remote_.erase(it) : std::next(it);
   }
   return dropped;
+}
+
+void Replication::reauthorize() {
+  for (auto& [subscriber, subscriptions] : remote_) {
+    auto access = guard_.readAccess(subscriber);
+    for (auto& [id, subscription] : subscriptions) subscription.access = access;
+  }
 }
 
 std::vector<PeisId> Replication::subscribers() const {

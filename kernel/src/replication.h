@@ -21,6 +21,7 @@
 
 #include "net/wire.h"
 #include "outbox.h"
+#include "owner_guard.h"
 #include "peis/kernel.h"
 #include "tuple_space.h"
 
@@ -32,20 +33,29 @@ class Replication {
 
   using Outgoing = Outbox::Outgoing;
 
-  Replication(TupleSpace& space, std::uint64_t incarnation, std::chrono::milliseconds lease);
+  Replication(TupleSpace& space, std::uint64_t incarnation, std::chrono::milliseconds lease,
+              const Limits& limits = {});
 
   // --- owner side ---------------------------------------------------------
   // Observer of the local space: pushes own changes to matching subscribers.
   void onLocalEvent(EventKind kind, const TuplePtr& tuple);
   void onSubscribe(PeisId subscriber, const wire::Subscribe& subscribe, SteadyTime now);
   void onUnsubscribe(PeisId subscriber, std::uint64_t subscription);
-  // Applies a remote write; returns the result to send back.
+  // What the owner refuses of other PEIS (its checks run in onWrite).
+  OwnerGuard& guard() { return guard_; }
+  // The guard's verdict on a remote write of an own tuple (nullopt: it may
+  // be applied); onWrite asks it too.
+  std::optional<Error> admit(PeisId source, const wire::Write& write);
+  // Applies a remote write, unless the guard refuses it; returns the result
+  // to send back.
   wire::WriteResult onWrite(PeisId source, const wire::Write& write);
   // Answers a remote write with an error instead of applying it.
   void refuseWrite(PeisId source, const wire::Write& write, const Error& error);
   // Drops subscriptions whose lease ran out; true if any was dropped.
   bool expireLeases(SteadyTime now);
   std::vector<PeisId> subscribers() const;
+  // The policy changed: what each subscriber may read is asked again.
+  void reauthorize();
 
   // --- subscriber side ----------------------------------------------------------
   SubscriptionHandle subscribe(const Pattern& pattern);
@@ -104,6 +114,8 @@ class Replication {
     Pattern pattern;
     SteadyTime expiry;
     std::uint32_t maxDataBytes = wire::kNoDataLimit;  // the subscriber's limit
+    // What the subscriber may read (a secured ecology's policy); null: all.
+    std::shared_ptr<const OwnerGuard::ReadAccess> access;
   };
   struct LocalSubscription {
     Pattern pattern;
@@ -122,6 +134,7 @@ class Replication {
   wire::Subscribe subscribeMessage(const LocalSubscription& local, std::uint64_t wireId) const;
 
   TupleSpace& space_;
+  OwnerGuard guard_;
   std::uint64_t incarnation_;
   std::chrono::milliseconds lease_;
   std::map<PeisId, std::map<std::uint64_t, RemoteSubscription>> remote_;

@@ -533,6 +533,20 @@ CallbackId TupleSpace::addCallback(const Pattern& pattern, unsigned mask, Callba
   return id;
 }
 
+CallbackId TupleSpace::addCallbackWithHeld(const Pattern& pattern, Callback fn) {
+  const auto id = addCallback(pattern, kOnChange, std::move(fn));
+  const auto& entry = callbacks_.at(id);
+  for (const auto& tuple : find(pattern)) {
+    Delivery delivery;
+    delivery.kind_ = EventKind::Changed;
+    delivery.tuple_ = tuple;
+    if (!indirects_.empty()) delivery.incarnation_ = lifeOf(tuple->owner);
+    delivery.targets_.push_back(Delivery::Target{entry, nullptr, false, std::nullopt});
+    queue_.push_back(std::move(delivery));
+  }
+  return id;
+}
+
 CallbackId TupleSpace::addIndirectCallback(PeisId metaOwner, std::string_view metaKey,
                                            unsigned mask, Callback fn) {
   validateKey(metaKey);

@@ -163,6 +163,10 @@ class TupleSpace {
 
   // --- callbacks --------------------------------------------------------------
   CallbackId addCallback(const Pattern& pattern, unsigned mask, Callback fn);
+  // The same, and queues at once a change event for this callback alone
+  // with every matching tuple held now: under the lock, so no value is
+  // missed between those and the changes after, and none comes twice.
+  CallbackId addCallbackWithHeld(const Pattern& pattern, Callback fn);
   // Follows meta tuple (owner, metaKey): calls `fn` for changes of whatever
   // it points to, and, when it is re-pointed, at once with the new target's
   // current value. Never delivers a target's seqno twice or out of order.

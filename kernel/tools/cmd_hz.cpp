@@ -81,7 +81,7 @@ std::string reportLine(const std::string& name, const RateStats& s, bool json) {
                   ",\"rate_hz\":%.6g,\"min_s\":%.6g,\"max_s\":%.6g,\"std_dev_s\":%.6g,"
                   "\"window\":%zu}",
                   s.rateHz, s.minS, s.maxS, s.stdDevS, s.intervals);
-    return "{\"tuple\":" + jsonString(name) + text;
+    return "{\"tuple\":" + json::quote(name) + text;
   }
   std::snprintf(text, sizeof text, ": %.3f Hz  min %.4fs  max %.4fs  std dev %.5fs  window %zu",
                 s.rateHz, s.minS, s.maxS, s.stdDevS, s.intervals);

@@ -49,10 +49,10 @@ int run(Kernel& kernel, const Args& args) {
     }
     if (json) {
       std::cout << (first ? "" : ",") << "{\"id\":" << peer.id
-                << ",\"name\":" << jsonString(peer.name)
-                << ",\"host\":" << jsonString(value(peer.id, special::kHostname))
+                << ",\"name\":" << json::quote(peer.name)
+                << ",\"host\":" << json::quote(value(peer.id, special::kHostname))
                 << ",\"hops\":" << peer.hops
-                << ",\"links\":" << jsonString(value(peer.id, special::kLinks))
+                << ",\"links\":" << json::quote(value(peer.id, special::kLinks))
                 << ",\"uptime_s\":" << up << ",\"tool\":" << (peer.tool ? "true" : "false") << "}";
     } else {
       std::printf("%-11d %-20s %-16s %4d  %-24s %s%s\n", peer.id, peer.name.c_str(),

@@ -17,8 +17,8 @@ int run(Kernel& kernel, const Args& args) {
   const auto metaOwner = reachableOwner(kernel, meta.owner, deadline);
   kernel.setMeta(metaOwner, meta.key, targetOwner, target.key);
   if (args.has("--json")) {
-    std::cout << "{\"meta\":" << jsonString(fullName(metaOwner, meta.key))
-              << ",\"target\":" << jsonString(fullName(targetOwner, target.key)) << "}\n";
+    std::cout << "{\"meta\":" << json::quote(fullName(metaOwner, meta.key))
+              << ",\"target\":" << json::quote(fullName(targetOwner, target.key)) << "}\n";
   }
   return 0;
 }

@@ -20,6 +20,8 @@ struct Command {
   std::vector<std::string> options;  // accepted besides --help, --verbose, --peis-*
   bool tool = true;  // a short-lived tool PEIS (left out of `peis ls`); `node` is not
   int (*run)(Kernel& kernel, const Args& args) = nullptr;
+  // A command that needs no PEIS of its own (`keys`): run instead of `run`.
+  int (*runAlone)(const Options& options, const Args& args) = nullptr;
 };
 
 // Every built-in command, in the order the help lists them.
@@ -54,5 +56,6 @@ Command metaCommand();
 Command watchCommand();
 Command hzCommand();
 Command tuplesCommand();
+Command keysCommand();
 
 }  // namespace peis::cli

@@ -9,7 +9,7 @@ namespace peis::cli {
 const std::vector<Command>& builtinCommands() {
   static const std::vector<Command> commands{
       lsCommand(),   infoCommand(),  getCommand(), setCommand(),    appendCommand(), eraseCommand(),
-      metaCommand(), watchCommand(), hzCommand(),  tuplesCommand(), nodeCommand(),
+      metaCommand(), watchCommand(), hzCommand(),  tuplesCommand(), nodeCommand(),   keysCommand(),
   };
   return commands;
 }

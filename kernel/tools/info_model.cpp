@@ -56,7 +56,7 @@ std::string jsonIds(const std::vector<PeisId>& ids) {
 
 std::string jsonStrings(const std::vector<std::string>& items) {
   std::string text = "[";
-  for (std::size_t i = 0; i < items.size(); ++i) text += (i ? "," : "") + jsonString(items[i]);
+  for (std::size_t i = 0; i < items.size(); ++i) text += (i ? "," : "") + json::quote(items[i]);
   return text + "]";
 }
 
@@ -179,26 +179,26 @@ std::string formatInfo(const PeisInfo& info, const NameOf& nameOf) {
 
 std::string infoJson(const PeisInfo& info) {
   std::ostringstream out;
-  out << "{\"id\":" << info.id << ",\"name\":" << jsonString(info.name)
-      << ",\"host\":" << jsonString(info.host) << ",\"user\":" << jsonString(info.user)
-      << ",\"version\":" << jsonString(info.version) << ",\"port\":" << jsonString(info.port)
+  out << "{\"id\":" << info.id << ",\"name\":" << json::quote(info.name)
+      << ",\"host\":" << json::quote(info.host) << ",\"user\":" << json::quote(info.user)
+      << ",\"version\":" << json::quote(info.version) << ",\"port\":" << json::quote(info.port)
       << ",\"uptime_s\":" << info.upSeconds << ",\"links\":" << jsonIds(info.links)
       << ",\"subscribers\":" << jsonIds(info.subscribers)
-      << ",\"component\":" << jsonString(info.component)
-      << ",\"status\":" << jsonString(info.status) << ",\"causes\":" << jsonString(info.causes)
+      << ",\"component\":" << json::quote(info.component)
+      << ",\"status\":" << json::quote(info.status) << ",\"causes\":" << json::quote(info.causes)
       << ",\"inputs\":[";
   for (std::size_t i = 0; i < info.inputs.size(); ++i) {
     const auto& input = info.inputs[i];
-    out << (i ? "," : "") << "{\"name\":" << jsonString(input.name)
-        << ",\"target\":" << jsonString(input.target)
+    out << (i ? "," : "") << "{\"name\":" << json::quote(input.name)
+        << ",\"target\":" << json::quote(input.target)
         << ",\"missing\":" << (input.missing ? "true" : "false") << "}";
   }
   out << "],\"outputs\":" << jsonStrings(info.outputs) << ",\"actuators\":[";
   for (std::size_t i = 0; i < info.actuators.size(); ++i) {
     const auto& a = info.actuators[i];
-    out << (i ? "," : "") << "{\"name\":" << jsonString(a.name)
-        << ",\"reqState\":" << jsonString(a.reqState)
-        << ",\"currState\":" << jsonString(a.currState) << ",\"status\":" << jsonString(a.status)
+    out << (i ? "," : "") << "{\"name\":" << json::quote(a.name)
+        << ",\"reqState\":" << json::quote(a.reqState)
+        << ",\"currState\":" << json::quote(a.currState) << ",\"status\":" << json::quote(a.status)
         << "}";
   }
   out << "],\"functionalities\":" << jsonStrings(info.functionalities) << "}";

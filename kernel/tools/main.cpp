@@ -120,8 +120,11 @@ int runBuiltin(const Command& command, int argc, char** argv) {
     log::setLevel(log::Level::Warn);
   }
   options.tool = command.tool;
-  if (options.name.empty()) options.name = command.tool ? "peis-" + command.name : command.name;
   try {
+    if (command.runAlone) return command.runAlone(options, args);
+    if (options.name.empty() && options.credentials.empty()) {
+      options.name = command.tool ? "peis-" + command.name : command.name;
+    }
     Kernel kernel(options);
     return command.run(kernel, args);
   } catch (const UsageError& e) {
@@ -171,7 +174,9 @@ int main(int argc, char** argv) {
   std::vector<std::string> known;
   for (const auto& command : builtinCommands()) known.push_back(command.name);
   for (auto& external : externalCommands(dirs)) known.push_back(std::move(external));
-  return usageError("'" + name + "' is not a peis command" + didYouMean(closestNames(name, known)));
+  return usageError("'" + name + "' is not a peis command (no built-in one, no program peis-" +
+                    name + " in PEIS_EXEC_PATH, beside peis or in PATH)" +
+                    didYouMean(closestNames(name, known)));
 }
 
 }  // namespace

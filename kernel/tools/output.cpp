@@ -6,38 +6,6 @@
 
 namespace peis::cli {
 
-std::string jsonString(std::string_view text) {
-  std::string out = "\"";
-  for (unsigned char c : text) {
-    switch (c) {
-      case '"':
-        out += "\\\"";
-        break;
-      case '\\':
-        out += "\\\\";
-        break;
-      case '\n':
-        out += "\\n";
-        break;
-      case '\r':
-        out += "\\r";
-        break;
-      case '\t':
-        out += "\\t";
-        break;
-      default:
-        if (c < 0x20) {
-          char buffer[8];
-          std::snprintf(buffer, sizeof buffer, "\\u%04x", c);
-          out += buffer;
-        } else {
-          out += static_cast<char>(c);
-        }
-    }
-  }
-  return out + "\"";
-}
-
 std::string printable(const Tuple& t) {
   if (t.encoding == Encoding::Binary) return "<" + std::to_string(t.data.size()) + " bytes>";
   return t.data;
@@ -45,16 +13,16 @@ std::string printable(const Tuple& t) {
 
 std::string tupleJson(const Tuple& t) {
   auto micros = [](Timestamp ts) { return std::to_string(ts.time_since_epoch().count()); };
-  return "{\"owner\":" + std::to_string(t.owner) + ",\"key\":" + jsonString(t.key) +
-         ",\"data\":" + jsonString(t.data) + ",\"creator\":" + std::to_string(t.creator) +
-         ",\"mimetype\":" + jsonString(t.mimetype) +
+  return "{\"owner\":" + std::to_string(t.owner) + ",\"key\":" + json::quote(t.key) +
+         ",\"data\":" + json::quote(t.data) + ",\"creator\":" + std::to_string(t.creator) +
+         ",\"mimetype\":" + json::quote(t.mimetype) +
          ",\"encoding\":" + (t.encoding == Encoding::Binary ? "\"binary\"" : "\"ascii\"") +
          ",\"seqno\":" + std::to_string(t.seqno) + ",\"ts_write\":" + micros(t.ts_write) +
          ",\"ts_user\":" + micros(t.ts_user) + ",\"ts_expire\":" + micros(t.ts_expire) + "}";
 }
 
 std::string writeResultJson(PeisId owner, std::string_view key, std::uint64_t seqno) {
-  return "{\"owner\":" + std::to_string(owner) + ",\"key\":" + jsonString(key) +
+  return "{\"owner\":" + std::to_string(owner) + ",\"key\":" + json::quote(key) +
          ",\"seqno\":" + std::to_string(seqno) + "}";
 }
 

@@ -5,12 +5,11 @@
 #include <string>
 #include <string_view>
 
+#include "peis/json_string.h"  // json::quote, for every command's --json
 #include "peis/tuple.h"
 
 namespace peis::cli {
 
-// A JSON string literal of `text` (quotes, backslashes, control bytes escaped).
-std::string jsonString(std::string_view text);
 // A tuple's data for a text line: as is, or "<N bytes>" when binary.
 std::string printable(const Tuple& t);
 // {"owner","key","data","creator","mimetype","encoding","seqno","ts_write",

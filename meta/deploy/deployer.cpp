@@ -113,8 +113,18 @@ std::uint64_t Deployer::nextGeneration(const LiveModel&) const {
 }
 
 std::vector<PeisChanges> Deployer::pendingChanges(const Configuration& configuration,
-                                                  const LiveModel& live) const {
-  return changesExcept(configuration, live, {});
+                                                  const LiveModel& live,
+                                                  const std::set<int>& leaveAlone) const {
+  return changesExcept(configuration, live, leftAlone(configuration, leaveAlone));
+}
+
+std::set<int> Deployer::leftAlone(const Configuration& configuration,
+                                  const std::set<int>& leaveAlone) {
+  const auto desired = desiredState(configuration);
+  std::set<int> skipped;
+  for (int id : leaveAlone)
+    if (!desired.tuples.count(id)) skipped.insert(id);
+  return skipped;
 }
 
 std::vector<PeisChanges> Deployer::changesExcept(const Configuration& configuration,
@@ -213,9 +223,7 @@ DeployResult Deployer::deploy(const Configuration& configuration, const LiveMode
       return finish(result);
     }
   }
-  std::set<int> skipped;
-  for (int id : leaveAlone)
-    if (!desired.tuples.count(id)) skipped.insert(id);
+  std::set<int> skipped = leftAlone(configuration, leaveAlone);
   if (changesExcept(configuration, live, skipped).empty()) {
     result.ok = result.unchanged = true;
     return finish(result);

@@ -72,9 +72,9 @@ class Deployer {
                       const std::set<int>& leaveAlone = {});
 
   // The changes deploying would make now, without locks (for the
-  // idempotency check and `--dry-run`).
-  std::vector<PeisChanges> pendingChanges(const Configuration& configuration,
-                                          const LiveModel& live) const;
+  // idempotency check, drift and `--dry-run`); `leaveAlone` as for deploy.
+  std::vector<PeisChanges> pendingChanges(const Configuration& configuration, const LiveModel& live,
+                                          const std::set<int>& leaveAlone = {}) const;
 
  private:
   struct Held {
@@ -88,6 +88,9 @@ class Deployer {
   std::map<int, std::set<std::string>> ownedRecords(const LiveModel& live) const;
   std::vector<PeisChanges> changesExcept(const Configuration& configuration, const LiveModel& live,
                                          const std::set<int>& excluded) const;
+  // Of `leaveAlone`, the PEIS the configuration does not write on.
+  static std::set<int> leftAlone(const Configuration& configuration,
+                                 const std::set<int>& leaveAlone);
   std::optional<std::string> currentValue(int peis, const std::string& key) const;
   bool alive(int peis) const;
 

@@ -5,6 +5,7 @@
 #include <condition_variable>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <thread>
@@ -35,7 +36,23 @@ const std::vector<std::string> kWatched = {special::kAllKeys,
                                            "config.owned",
                                            "config.lock",
                                            "config.goal.**",
-                                           "config.configurator"};
+                                           "config.configurator",
+                                           cv::launchKey("*", cv::kLaunchPeisName),
+                                           cv::launchKey("*", cv::kLaunchDescriptor),
+                                           cv::launchKey("*", cv::kLaunchReqState),
+                                           cv::launchKey("*", cv::kLaunchCurrState),
+                                           cv::launchKey("*", cv::kLaunchStatus)};
+
+// `components.<c>.<field>` of a launcher that introspection follows.
+std::optional<std::pair<std::string, std::string>> launchField(std::string_view key) {
+  auto parsed = cv::parseLaunchKey(key);
+  if (!parsed) return std::nullopt;
+  const auto& field = parsed->second;
+  if (field == cv::kLaunchPeisName || field == cv::kLaunchDescriptor ||
+      field == cv::kLaunchReqState || field == cv::kLaunchCurrState || field == cv::kLaunchStatus)
+    return parsed;
+  return std::nullopt;
+}
 
 std::set<std::string> splitWords(const std::string& text) {
   std::istringstream in(text);
@@ -81,7 +98,8 @@ struct Introspector::State {
         key == cv::kComponentDescriptor || key == "tiny.bridge" || key == "config.owned" ||
         key == "config.lock" || key == "config.configurator" || key == special::kPeers)
       return true;
-    return startsWith(key, cv::kFactPrefix) || startsWith(key, "config.goal.");
+    return startsWith(key, cv::kFactPrefix) || startsWith(key, "config.goal.") ||
+           launchField(key).has_value();
   }
 
   // Called with mu held; returns the listener to call after unlocking.
@@ -98,6 +116,9 @@ struct Introspector::State {
 
   void refreshMembership() {
     std::function<void()> notify;
+    // PEIS that joined, came back or restarted: their tuples the kernel
+    // holds already are read again below (see replayHeld).
+    std::vector<PeisId> arrived;
     {
       std::lock_guard lock(mu);
       std::set<PeisId> present;
@@ -111,6 +132,7 @@ struct Introspector::State {
         if (!peer.live.alive || peer.live.name != info.name || restarted || peer.live.id == 0) {
           changedAny = true;
         }
+        if (!peer.live.alive || restarted || peer.live.id == 0) arrived.push_back(info.id);
         if (restarted) {
           // A new life: its tuples come again (the kernel forgot the old ones).
           peer.keysSeen = false;
@@ -141,11 +163,28 @@ struct Introspector::State {
         peer.exact.clear();
         peer.keysSeen = false;
       }
-      if (!changedAny) return;
-      membershipChanged = std::chrono::steady_clock::now();
-      notify = bump();
+      if (changedAny) {
+        membershipChanged = std::chrono::steady_clock::now();
+        notify = bump();
+      }
     }
     if (notify) notify();
+    for (const PeisId owner : arrived) replayHeld(owner);
+  }
+
+  // Hands the tuples of `owner` that the kernel holds now to onTuple. The
+  // kernel calls back only on a change: a tuple that came before its owner
+  // was a member here (dropped by onTuple), or one held across the owner's
+  // brief absence (a route lost and found again under load: the full sync
+  // that follows brings the same seqnos, no change, no callback) would
+  // otherwise never be seen, and the followed keys of that PEIS with it.
+  void replayHeld(PeisId owner) {
+    if (owner == kernel.id()) return;  // own tuples: read once at start
+    const auto held = kernel.find(Pattern(std::string(special::kAllKeys), owner));
+    for (const auto& t : held) onTuple(t, false);  // first: it names the keys to follow
+    for (const auto& t : kernel.find(Pattern("**", owner))) {
+      if (t.key != special::kAllKeys) onTuple(t, false);
+    }
   }
 
   void onAllKeys(Peer& peer, PeisId owner, const std::string& data) {
@@ -178,6 +217,28 @@ struct Introspector::State {
     }
   }
 
+  static void onLaunchField(LivePeis& live, const std::string& component, const std::string& field,
+                            const std::string& data, bool deleted) {
+    auto& e = live.launches[component];
+    if (field == cv::kLaunchPeisName) e.peisName = data;
+    if (field == cv::kLaunchReqState) e.reqState = data;
+    if (field == cv::kLaunchCurrState) e.currState = data;
+    if (field == cv::kLaunchStatus) e.status = data;
+    if (field == cv::kLaunchDescriptor) {
+      e.descriptor.reset();
+      e.descriptorProblem.clear();
+      if (!deleted && !data.empty()) {
+        try {
+          e.descriptor =
+              Descriptor::fromYaml(data, live.name + "." + cv::launchKey(component, field));
+        } catch (const Error& error) {
+          e.descriptorProblem = error.what();
+        }
+      }
+    }
+    if (deleted && field == cv::kLaunchPeisName) live.launches.erase(component);
+  }
+
   // A tuple changed (`value`) or was deleted (nullptr).
   void onTuple(const Tuple& t, bool deleted) {
     bool known;
@@ -190,7 +251,8 @@ struct Introspector::State {
     {
       std::lock_guard lock(mu);
       auto it = peers.find(t.owner);
-      if (it == peers.end()) return;  // not a member (yet): membership adds it, then its tuples
+      // Not a member (yet): membership adds it, then replays what the kernel holds of it.
+      if (it == peers.end()) return;
       auto& peer = it->second;
       const std::string& key = t.key;
       if (key == special::kAllKeys) {
@@ -242,6 +304,8 @@ struct Introspector::State {
           } else {
             live.goals[key] = data;
           }
+        } else if (const auto launch = launchField(key)) {
+          onLaunchField(live, launch->first, launch->second, data, deleted);
         } else if (startsWith(key, cv::kFactPrefix)) {
           const auto atom = factOfKey(key);
           if (!atom) return;

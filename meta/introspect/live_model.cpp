@@ -91,6 +91,20 @@ const LivePeis* LiveModel::findByName(std::string_view name) const {
   return dead;
 }
 
+std::optional<LiveModel::Launchable> LiveModel::launchable(std::string_view peisName) const {
+  for (const auto& p : peis) {
+    if (!p.alive) continue;
+    for (const auto& [component, entry] : p.launches) {
+      if (entry.peisName != peisName || !entry.descriptor) continue;
+      if (entry.currState == conventions::kLaunchFailed ||
+          entry.currState == conventions::kLaunchRestarting)
+        continue;
+      return Launchable{&p, component, &entry};
+    }
+  }
+  return std::nullopt;
+}
+
 std::string LiveModel::canonicalTarget(const std::string& data) const {
   try {
     const auto name = parseFullName(data);
@@ -129,6 +143,24 @@ Model LiveModel::toModel(const LinkCosts& costs,
     info.radio = p.radio;
     if (p.descriptor) info.components.push_back(*p.descriptor);
     model.peis.push_back(std::move(info));
+  }
+  // Components a launcher can start: alive for the planner, id 0 until they run.
+  std::set<std::string> launchNames;
+  for (const auto& p : peis) {
+    if (!p.alive) continue;
+    for (const auto& [component, entry] : p.launches) {
+      const auto& name = entry.peisName;
+      if (!plannableName(name) || aliveNames.count(name) || launchNames.count(name)) continue;
+      const auto where = launchable(name);
+      if (!where || where->entry != &entry) continue;
+      launchNames.insert(name);
+      PeisInfo info;
+      info.name = name;
+      info.components.push_back(*entry.descriptor);
+      // It replaces a gone PEIS of that name (an earlier run).
+      std::erase_if(model.peis, [&](const PeisInfo& i) { return i.name == name; });
+      model.peis.push_back(std::move(info));
+    }
   }
   std::set<Term> seen;
   for (const auto& p : peis) {
@@ -187,6 +219,11 @@ std::string LiveModel::toText() const {
       out += "  goals " + key + ": " + (oneLine.empty() ? std::string("(none)") : oneLine) + "\n";
     }
     if (!lastLine(p.lock).empty()) out += "  config.lock: " + lastLine(p.lock) + "\n";
+    for (const auto& [name, e] : p.launches)
+      out += "  launches " + name + " as '" + e.peisName +
+             "': " + (e.currState.empty() ? std::string("-") : e.currState) +
+             (e.descriptor ? "" : " (no descriptor)") +
+             (e.status.empty() || e.status == "ok" ? std::string() : ", " + e.status) + "\n";
   }
   return out;
 }
@@ -220,7 +257,16 @@ std::string LiveModel::toJson() const {
     out += "},\"facts\":[";
     for (std::size_t f = 0; f < p.facts.size(); ++f) out += (f ? "," : "") + quote(p.facts[f]);
     out += "],\"goals\":" + object(p.goals) + ",\"owned\":" + quote(p.owned) +
-           ",\"lock\":" + quote(lastLine(p.lock)) + "}";
+           ",\"lock\":" + quote(lastLine(p.lock)) + ",\"launches\":{";
+    first = true;
+    for (const auto& [name, e] : p.launches) {
+      out += std::string(first ? "" : ",") + quote(name) + ":{\"peisName\":" + quote(e.peisName) +
+             ",\"descriptor\":" + (e.descriptor ? "true" : "false") +
+             ",\"reqState\":" + quote(e.reqState) + ",\"currState\":" + quote(e.currState) +
+             ",\"status\":" + quote(e.status) + "}";
+      first = false;
+    }
+    out += "}}";
   }
   return out + "]}";
 }
@@ -259,6 +305,24 @@ std::string LiveModel::toYaml() const {
     out << YAML::Key << "owned" << YAML::Value << YAML::DoubleQuoted << p.owned;
     out << YAML::Key << "lock" << YAML::Value << YAML::DoubleQuoted << p.lock;
     out << YAML::Key << "lock-seqno" << YAML::Value << p.lockSeqno;
+    if (!p.launches.empty()) {
+      out << YAML::Key << "launches" << YAML::Value << YAML::BeginMap;
+      for (const auto& [name, e] : p.launches) {
+        out << YAML::Key << name << YAML::Value << YAML::BeginMap;
+        for (const auto& [k, v] :
+             std::map<std::string, std::string>{{"peis-name", e.peisName},
+                                                {"descriptor-problem", e.descriptorProblem},
+                                                {"reqState", e.reqState},
+                                                {"currState", e.currState},
+                                                {"status", e.status}})
+          out << YAML::Key << k << YAML::Value << YAML::DoubleQuoted << v;
+        if (e.descriptor)
+          out << YAML::Key << "descriptor" << YAML::Value << YAML::Literal
+              << e.descriptor->toYaml();
+        out << YAML::EndMap;
+      }
+      out << YAML::EndMap;
+    }
     out << YAML::EndMap;
   }
   out << YAML::EndSeq << YAML::EndMap;
@@ -278,7 +342,7 @@ static LiveModel parseLiveModel(const YAML::Node& root, std::string_view origin)
     yaml::onlyKeys(origin, node,
                    {"id", "name", "alive", "radio", "incarnation", "configurator", "component",
                     "descriptor", "descriptor-problem", "status", "causes", "links", "actuators",
-                    "facts", "goals", "owned", "lock", "lock-seqno"},
+                    "facts", "goals", "owned", "lock", "lock-seqno", "launches"},
                    "a PEIS");
     LivePeis p;
     try {
@@ -316,6 +380,27 @@ static LiveModel parseLiveModel(const YAML::Node& root, std::string_view origin)
     p.goals = readMap(origin, node["goals"], "goals");
     p.owned = text(origin, node["owned"], "owned");
     p.lock = text(origin, node["lock"], "lock");
+    if (const auto launches = node["launches"]) {
+      if (!launches.IsMap()) yaml::fail(origin, launches, "launches must be a mapping");
+      for (const auto& item : launches) {
+        const auto name = item.first.as<std::string>();
+        yaml::onlyKeys(
+            origin, item.second,
+            {"peis-name", "descriptor", "descriptor-problem", "reqState", "currState", "status"},
+            "a launched component");
+        LaunchEntry e;
+        e.peisName = text(origin, item.second["peis-name"], "peis-name");
+        if (item.second["descriptor"])
+          e.descriptor =
+              Descriptor::fromYaml(yaml::scalar(origin, item.second["descriptor"], "descriptor"),
+                                   std::string(origin) + " (descriptor of component " + name + ")");
+        e.descriptorProblem = text(origin, item.second["descriptor-problem"], "descriptor-problem");
+        e.reqState = text(origin, item.second["reqState"], "reqState");
+        e.currState = text(origin, item.second["currState"], "currState");
+        e.status = text(origin, item.second["status"], "status");
+        p.launches[name] = std::move(e);
+      }
+    }
     model.peis.push_back(std::move(p));
   }
   return model;

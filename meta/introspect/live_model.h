@@ -27,6 +27,17 @@ struct ActuatorState {
   bool operator==(const ActuatorState&) const = default;
 };
 
+// A component that a launcher (peis-init) declares: its `components.<name>.*`
+// tuples (docs/operating.md, "The launcher"). The configurator plans with the
+// ones that are not running and asks the launcher to start those it uses.
+struct LaunchEntry {
+  std::string peisName;                  // `.peisName`: the PEIS it joins as
+  std::optional<Descriptor> descriptor;  // `.descriptor`
+  std::string descriptorProblem;         // why the published descriptor was not usable
+  std::string reqState, currState, status;
+  bool operator==(const LaunchEntry&) const = default;
+};
+
 struct LivePeis {
   int id = 0;
   std::string name;
@@ -46,6 +57,7 @@ struct LivePeis {
   std::string lock;                          // `config.lock`: who deploys here (last line counts)
   std::uint64_t lockSeqno = 0;               // the lock tuple's seqno (0: absent)
   bool configurator = false;                 // publishes `config.configurator`
+  std::map<std::string, LaunchEntry> launches;  // a launcher's components, by name
   bool operator==(const LivePeis&) const = default;
 };
 
@@ -55,6 +67,15 @@ struct LiveModel {
   const LivePeis* find(int id) const;
   // The alive PEIS of that name, else a gone one, else nothing.
   const LivePeis* findByName(std::string_view name) const;
+  // A component that an alive launcher declares to run as PEIS `peisName`,
+  // with a descriptor, and that is not `failed` or `restarting`: where to
+  // ask for it (the launcher's PEIS and the component's name).
+  struct Launchable {
+    const LivePeis* launcher = nullptr;
+    std::string component;
+    const LaunchEntry* entry = nullptr;
+  };
+  std::optional<Launchable> launchable(std::string_view peisName) const;
   // A meta tuple's data (`OWNER.KEY`, OWNER an id or a name) as `ID.KEY`;
   // unchanged when it names no PEIS known here.
   std::string canonicalTarget(const std::string& data) const;
@@ -64,7 +85,10 @@ struct LiveModel {
   // of alive PEIS with their publisher. A PEIS whose name is not one plain
   // word for the planner is named `peis-<id>`; a dead PEIS whose name an
   // alive one carries (a restart under a new id) is left out, and of dead
-  // PEIS of one name only the last life is kept.
+  // PEIS of one name only the last life is kept. A component an alive
+  // launcher can start (launchable()) whose PEIS is not alive is in the
+  // model as an alive PEIS of id 0 with its descriptor: the planner may use
+  // it, and the configurator starts it before it deploys.
   Model toModel(const LinkCosts& costs = {},
                 const std::vector<LinkCostOverride>& overrides = {}) const;
 

@@ -80,7 +80,8 @@ Goals parseGoals(std::string_view text, std::string_view origin) {
         goals.run.push_back({*s, where(item)});
         continue;
       }
-      auto text = yaml::scalar(origin, item["information"], "information");
+      auto text = yaml::scalar(origin, yaml::field(origin, item, "information", "information"),
+                               "information");
       if (item["consumer"]) text += "@" + yaml::scalar(origin, item["consumer"], "consumer");
       auto g = parseInformation(text, &problem);
       if (!g) yaml::fail(origin, item, "goal '" + text + "': " + problem);
@@ -93,6 +94,7 @@ Goals parseGoals(std::string_view text, std::string_view origin) {
       const auto text = yaml::scalar(origin, item, "avoid");
       if (plainWord(text)) {
         goals.constraints.avoidPeis.push_back(text);
+        goals.constraints.avoidPeisOrigin.emplace(text, where(item));
         continue;
       }
       std::string problem;
@@ -212,6 +214,7 @@ Goals Goals::fromArguments(const std::vector<std::string>& arguments) {
     } else if (auto rest = after("avoid:")) {
       if (plainWord(*rest)) {
         goals.constraints.avoidPeis.push_back(*rest);
+        goals.constraints.avoidPeisOrigin.emplace(*rest, origin);
       } else {
         auto s = parseSelector(*rest, &problem, true);
         if (!s) fail();

@@ -15,7 +15,7 @@ PeisInfo peisEntry(std::string_view origin, const YAML::Node& node,
                    const std::filesystem::path& baseDir) {
   yaml::onlyKeys(origin, node, {"id", "name", "alive", "radio", "components"}, "a PEIS");
   PeisInfo p;
-  p.name = yaml::scalar(origin, node["name"], "PEIS name");
+  p.name = yaml::scalar(origin, yaml::field(origin, node, "name", "PEIS name"), "PEIS name");
   if (auto problem = Term::parse(p.name); !problem || !problem->args.empty()) {
     yaml::fail(origin, node["name"], "PEIS name '" + p.name + "' must be one plain word");
   }
@@ -52,7 +52,7 @@ Fact factEntry(std::string_view origin, const YAML::Node& node) {
   YAML::Node atom = node;
   if (node.IsMap()) {
     yaml::onlyKeys(origin, node, {"fact", "publisher"}, "a fact");
-    atom.reset(node["fact"]);
+    atom.reset(yaml::field(origin, node, "fact", "fact"));
     if (node["publisher"]) f.publisher = yaml::scalar(origin, node["publisher"], "publisher");
   }
   f.atom = yaml::term(origin, atom, "fact");
@@ -105,9 +105,10 @@ Model parseModel(std::string_view text, std::string_view origin) {
   if (const auto list = root["link-overrides"]) {
     for (const auto& item : yaml::sequence(origin, list, "link-overrides")) {
       yaml::onlyKeys(origin, item, {"producer", "consumer", "cost"}, "a link override");
-      LinkCostOverride o{yaml::scalar(origin, item["producer"], "producer"),
-                         yaml::scalar(origin, item["consumer"], "consumer"),
-                         yaml::number(origin, item["cost"], "cost")};
+      LinkCostOverride o{
+          yaml::scalar(origin, yaml::field(origin, item, "producer", "producer"), "producer"),
+          yaml::scalar(origin, yaml::field(origin, item, "consumer", "consumer"), "consumer"),
+          yaml::number(origin, yaml::field(origin, item, "cost", "cost"), "cost")};
       for (const auto* name : {&o.producer, &o.consumer}) {
         if (!m.findPeis(*name)) {
           yaml::fail(origin, item, "link override names the unknown PEIS '" + *name + "'");

@@ -25,15 +25,24 @@ namespace peis::meta::yaml {
 
 inline void onlyKeys(std::string_view origin, const YAML::Node& map,
                      const std::set<std::string>& allowed, const std::string& what) {
-  if (!map.IsMap()) fail(origin, map, what + " must be a mapping");
+  std::string list;
+  for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+  if (!map.IsMap()) fail(origin, map, what + " must be a mapping (keys: " + list + ")");
   for (const auto& item : map) {
     const auto key = item.first.as<std::string>();
     if (!allowed.count(key)) {
-      std::string list;
-      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
       fail(origin, item.first, "unknown key '" + key + "' in " + what + " (known: " + list + ")");
     }
   }
+}
+
+// The value of a required key; when it is missing, the error names the line
+// of the mapping that lacks it.
+inline YAML::Node field(std::string_view origin, const YAML::Node& map, const char* key,
+                        const std::string& what) {
+  const YAML::Node node = map[key];
+  if (!node) fail(origin, map, what + " is missing");
+  return node;
 }
 
 inline std::string scalar(std::string_view origin, const YAML::Node& node,

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <condition_variable>
+#include <functional>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <set>
@@ -13,6 +15,7 @@
 #include "monitor/event_log.h"
 #include "monitor/goal_tuples.h"
 #include "monitor/health.h"
+#include "peis/conventions.h"
 #include "peis/error.h"
 #include "peis/meta/planner.h"
 
@@ -53,6 +56,14 @@ struct Planned {
   std::size_t goals = 0;
 };
 
+// The goal tuples (owner, key) that a plan's answers say are met.
+std::set<std::pair<int, std::string>> meets(const std::vector<GoalStatusLine>& status) {
+  std::set<std::pair<int, std::string>> met;
+  for (const auto& line : status)
+    if (line.state == GoalState::Deployed) met.emplace(line.owner, line.key);
+  return met;
+}
+
 Model withEveryPeisAlive(Model model) {
   for (auto& p : model.peis) p.alive = true;
   model.failed.clear();
@@ -86,6 +97,8 @@ struct Configurator::Impl {
   // What is deployed.
   std::optional<PlanResult> deployed;
   std::string deployedSources;  // the goal tuples it serves
+  // Of those, the ones it meets (left out: pending, infeasible, refused).
+  std::set<std::pair<int, std::string>> deployedMeets;
   bool hadGoals = false;
   std::optional<Clock::time_point> driftSince;
   Clock::time_point driftQuietUntil{};  // after a drift deployment that changed nothing
@@ -95,6 +108,14 @@ struct Configurator::Impl {
   Clock::time_point repairRetryAt{};
   std::string publishedStatus;
   std::vector<GoalStatusLine> statusLines;  // the answers published last
+
+  // Components this configurator asked a launcher to start, by PEIS name.
+  struct Launched {
+    int launcher = 0;
+    std::string launcherName;
+    std::string component;
+  };
+  std::map<std::string, Launched> launched;
 
   bool active = false;
   std::string role;
@@ -226,7 +247,9 @@ struct Configurator::Impl {
       if (reason.empty()) reason = "recovered";
     }
     applyFailures();
-    if (repairPending && (modelChanged || now >= repairRetryAt)) {
+    // A pending repair means what is deployed is broken: a part back from
+    // failure may mend it at once (the margin below is for working ones).
+    if (repairPending && (modelChanged || now >= repairRetryAt || reason == "recovered")) {
       if (reason.empty()) reason = "repair";
       mustSwitch = true;
     }
@@ -259,6 +282,7 @@ struct Configurator::Impl {
         monitor.clear();
         deployed.reset();
         deployedSources.clear();
+        deployedMeets.clear();
         publishStatus({});
       }
     }
@@ -395,7 +419,7 @@ struct Configurator::Impl {
   }
 
   void planAndDeploy(const std::vector<GoalSource>& sources, const std::string& sourcesText,
-                     const Model& model, const LiveModel& live, const std::string& reason,
+                     Model model, const LiveModel& live, const std::string& reason,
                      bool mustSwitch) {
     if (reason == "goals") {
       events.record("goals", std::to_string(sources.size()) + " goal tuple(s)" +
@@ -412,6 +436,7 @@ struct Configurator::Impl {
     repairRetryAt = Clock::now() + options.grace;
     LiveModel current = live;
     std::string lastError;
+    int launchRounds = 0;
     for (int attempt = 0; attempt < 3; ++attempt) {
       const auto started = Clock::now();
       Planned planned = plan(sources);
@@ -428,7 +453,11 @@ struct Configurator::Impl {
                                      std::to_string(config.instances.size()) +
                                      " functionalities, " + std::to_string(config.links.size()) +
                                      " links, in " + fixed(planMs) + " ms" + avoiding());
-      if (!mustSwitch && deployed && deployed->ok() &&
+      // The margin compares configurations that meet the same goal tuples:
+      // one that meets a goal left out before (pending until its producer
+      // appeared) is deployed whatever it costs.
+      const bool meetsOthers = meets(planned.status) != deployedMeets;
+      if (!mustSwitch && !meetsOthers && deployed && deployed->ok() &&
           !worthSwitching(deployed->configuration.cost, config.cost, options.switchMargin)) {
         if (!(config == deployed->configuration))
           events.record("kept", "cost " + fixed(config.cost) + " is not " +
@@ -438,16 +467,30 @@ struct Configurator::Impl {
         deployedSources = sourcesText;
         return;
       }
+      // Components that do not run yet: their launchers start them, and the
+      // configuration is planned again with their PEIS (their ids, their state).
+      if (launchRounds < 2 && launchFor(config, current)) {
+        ++launchRounds;
+        --attempt;
+        current = introspector.snapshot();
+        model = current.toModel(options.costs, options.overrides);
+        updatePlanner(model);
+        applyFailures();
+        mustSwitch = true;
+        continue;
+      }
       const auto result = deploy(config, current);
       if (result.ok) {
         repairPending = false;
         deployed = planned.result;
         deployedSources = sourcesText;
+        deployedMeets = meets(planned.status);
         hadGoals = !sources.empty();
         monitor.deployed(config, model, Clock::now());
         driftSince.reset();
         publishStatus(planned.status);
         publishDeployed(result.generation, sources);
+        stopUnused(config);
         return;
       }
       lastError = result.error;
@@ -482,13 +525,17 @@ struct Configurator::Impl {
   }
 
   // Deploys and records the outcome as events (deployed, deploy-failed, warnings).
-  DeployResult deploy(const Configuration& config, const LiveModel& live) {
-    // The PEIS of failed parts are not waited on to switch anything off.
-    std::set<int> failedPeis;
+  // The PEIS of failed parts: not waited on to switch anything off.
+  std::set<int> failedPeisIds(const LiveModel& live) const {
+    std::set<int> ids;
     for (const auto& s : failed.selectors()) {
-      if (const auto* p = live.findByName(s.peis)) failedPeis.insert(p->id);
+      if (const auto* p = live.findByName(s.peis)) ids.insert(p->id);
     }
-    const auto result = deployer.deploy(config, live, failedPeis);
+    return ids;
+  }
+
+  DeployResult deploy(const Configuration& config, const LiveModel& live) {
+    const auto result = deployer.deploy(config, live, failedPeisIds(live));
     for (const auto& w : result.warnings) events.record("warning", w);
     if (!result.ok) {
       events.record("deploy-failed", result.error);
@@ -499,6 +546,123 @@ struct Configurator::Impl {
                                     fixed(result.milliseconds) + " ms");
     }
     return result;
+  }
+
+  // --- components started through launchers ----------------------------------
+  // Asks the launchers to start the PEIS of `config` that are not running
+  // (the planner had them from LiveModel::launchable, with id 0) and waits
+  // until each has joined and introspection has its tuples, or its launcher
+  // says it failed, or options.launchWait passes. Returns whether it asked
+  // for any; one that did not come is a failed part (planned without).
+  bool launchFor(const Configuration& config, const LiveModel& live) {
+    std::vector<std::string> needed;
+    for (const auto& i : config.instances) {
+      if (i.peisId != 0 || std::find(needed.begin(), needed.end(), i.peis) != needed.end())
+        continue;
+      if (const auto* p = live.findByName(i.peis); p && p->alive) continue;
+      needed.push_back(i.peis);
+    }
+    if (needed.empty()) return false;
+    const auto until = Clock::now() + options.launchWait;
+    std::vector<std::string> asked;
+    for (const auto& name : needed) {
+      const auto where = live.launchable(name);
+      if (!where) {
+        launchFailed(name, "no launcher offers it any more");
+        continue;
+      }
+      const Launched l{where->launcher->id, where->launcher->name, where->component};
+      const auto key = conventions::launchKey(l.component, conventions::kLaunchReqState);
+      events.record("launch", "asking launcher '" + l.launcherName + "' (" +
+                                  std::to_string(l.launcher) + ") to start component " +
+                                  l.component + " for PEIS '" + name + "': " + key + " = on");
+      try {
+        kernel.set(l.launcher, key, std::string(conventions::kLaunchOn));
+        launched[name] = l;
+        asked.push_back(name);
+      } catch (const Error& e) {
+        launchFailed(name, std::string("the launcher did not take the request: ") + e.what());
+      }
+    }
+    for (const auto& name : asked) {
+      std::string why =
+          "its PEIS did not join within " + std::to_string(options.launchWait.count()) + " ms";
+      bool ended = false;  // the launcher failed it, or is gone: nothing to stop later
+      const auto joined = waitUntil(until, [&] {
+        const auto now = introspector.snapshot();
+        const auto* p = now.findByName(name);
+        if (p && p->alive && p->descriptor && introspector.complete()) return true;
+        const auto& l = launched[name];
+        if (const auto* launcher = now.find(l.launcher)) {
+          const auto it = launcher->launches.find(l.component);
+          if (it != launcher->launches.end() &&
+              it->second.currState == conventions::kLaunchFailed) {
+            why = "its launcher says: " + it->second.status;
+            ended = true;
+            return true;
+          }
+        } else {
+          why = "its launcher is gone";
+          ended = true;
+          return true;
+        }
+        return false;
+      });
+      const auto now = introspector.snapshot();
+      const auto* p = now.findByName(name);
+      if (joined && p && p->alive && p->descriptor) {
+        events.record("launched", "PEIS '" + name + "' (" + std::to_string(p->id) +
+                                      ") of component " + launched[name].component +
+                                      " runs, started by launcher '" + launched[name].launcherName +
+                                      "'");
+      } else {
+        launchFailed(name, why);
+        // A failed component stays `failed` (its status says why); one that is
+        // slow to join is switched off again by stopUnused when not deployed.
+        if (ended) launched.erase(name);
+      }
+    }
+    return true;
+  }
+
+  void launchFailed(const std::string& peisName, const std::string& why) {
+    events.record("launch-failed", "PEIS '" + peisName + "': " + why);
+    Failure f{FailureKind::StaleInput, {}, 0, 0, "could not be started: " + why};
+    f.instance.peis = peisName;
+    failed.add(f, Clock::now());
+  }
+
+  // Stops the components this configurator started that `config` no longer uses.
+  void stopUnused(const Configuration& config) {
+    for (auto it = launched.begin(); it != launched.end();) {
+      const auto& [name, l] = *it;
+      const bool used = std::any_of(config.instances.begin(), config.instances.end(),
+                                    [&](const ActiveInstance& i) { return i.peis == name; });
+      if (used) {
+        ++it;
+        continue;
+      }
+      const auto key = conventions::launchKey(l.component, conventions::kLaunchReqState);
+      events.record("stop", "no configuration uses PEIS '" + name + "': asking launcher '" +
+                                l.launcherName + "' to stop component " + l.component + ": " + key +
+                                " = off");
+      kernel.setAsync(l.launcher, key, std::string(conventions::kLaunchOff), {},
+                      [](const std::optional<Error>&, std::uint64_t) {});
+      it = launched.erase(it);
+    }
+  }
+
+  // Waits, woken by introspection, until `done` holds, the configurator
+  // stops, or `until` passes; returns whether `done` held.
+  bool waitUntil(Clock::time_point until, const std::function<bool()>& done) {
+    while (true) {
+      if (done()) return true;
+      std::unique_lock lock(mu);
+      if (stopping || Clock::now() >= until) return false;
+      wake.wait_until(lock, std::min(until, Clock::now() + milliseconds(200)),
+                      [this] { return woken || stopping; });
+      woken = false;
+    }
   }
 
   bool reachable(int peis) const {
@@ -529,7 +693,10 @@ struct Configurator::Impl {
   void correctDrift(const LiveModel& live, Clock::time_point now) {
     // A configuration being repaired is not put back: the repair replaces it.
     if (!deployed || !monitor.active() || repairPending) return;
-    const auto changes = deployer.pendingChanges(deployed->configuration, live);
+    // What deploy leaves alone (the PEIS of failed parts) is no drift either:
+    // else a PEIS in error that keeps its old switch-on is "put back" forever.
+    const auto changes =
+        deployer.pendingChanges(deployed->configuration, live, failedPeisIds(live));
     if (changes.empty()) {
       driftSince.reset();
       return;

@@ -14,6 +14,12 @@
 //    (drift);
 //  - when a failed part is healthy again, or the ecology changed, switches
 //    only to a configuration cheaper by the margin (no flapping);
+//  - plans also with the components that a launcher (peis-init) declares but
+//    does not run: before it deploys a configuration that uses one, it asks
+//    that launcher to start it (`<launcher>.components.<c>.reqState` = `on`),
+//    waits until its PEIS has joined, and plans again with it; a component
+//    it started is stopped (`reqState` = `off`) once no deployed
+//    configuration uses it;
 //  - records every step as an event tuple `config.event.<n>`.
 //
 // Several configurators may run: the oldest (by start time, then id) that
@@ -40,6 +46,7 @@ struct ConfiguratorOptions {
   std::chrono::milliseconds retryAfter{30000};  // first retry of a part that did not deliver
   std::chrono::milliseconds driftHold{250};     // a changed deployed tuple is put back after this
   std::chrono::milliseconds planTimeLimit{200};
+  std::chrono::milliseconds launchWait{30000};  // a launched component's PEIS must join in this
   double switchMargin = 0.2;  // switch to a cheaper configuration only if >= 20 % cheaper
   std::size_t eventsKept = 256;
   LinkCosts costs;

@@ -33,6 +33,7 @@ void mergeGoals(Goals& goals, const Goals& more) {
   auto& c = goals.constraints;
   const auto& m = more.constraints;
   c.avoidPeis.insert(c.avoidPeis.end(), m.avoidPeis.begin(), m.avoidPeis.end());
+  c.avoidPeisOrigin.insert(m.avoidPeisOrigin.begin(), m.avoidPeisOrigin.end());
   c.avoid.insert(c.avoid.end(), m.avoid.begin(), m.avoid.end());
   c.prefer.insert(c.prefer.end(), m.prefer.begin(), m.prefer.end());
 }
@@ -50,6 +51,7 @@ ParsedGoalTuple parseGoalTuple(std::string_view text, const std::string& origin)
       auto goals = Goals::fromArguments({std::string(line)});
       for (auto& g : goals.information) g.origin = where;
       for (auto& g : goals.run) g.origin = where;
+      for (auto& [name, at] : goals.constraints.avoidPeisOrigin) at = where;
       mergeGoals(parsed.goals, goals);
     } catch (const Error& e) {
       parsed.problems.push_back(where + ": " + withoutArgumentPrefix(e.what()));

@@ -247,7 +247,12 @@ GroundProblem ground(const ModelIndex& index, const Goals& goals) {
   std::set<int> avoidedPeis;
   for (const auto& name : goals.constraints.avoidPeis) {
     const auto* p = model.findPeis(name);
-    if (!p) throw Error(ErrorCode::InvalidArgument, "avoid: unknown PEIS '" + name + "'");
+    if (!p) {
+      const auto at = goals.constraints.avoidPeisOrigin.find(name);
+      const auto where =
+          at == goals.constraints.avoidPeisOrigin.end() ? std::string() : " (" + at->second + ")";
+      throw Error(ErrorCode::InvalidArgument, "avoid: unknown PEIS '" + name + "'" + where);
+    }
     avoidedPeis.insert(static_cast<int>(p - model.peis.data()));
   }
   std::unordered_map<std::string, int> instanceIds;

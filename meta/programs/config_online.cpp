@@ -18,6 +18,7 @@
 #include "introspect/introspector.h"
 #include "monitor/events.h"
 #include "monitor/goal_tuples.h"
+#include "peis/conventions.h"
 #include "peis/error.h"
 #include "peis/kernel.h"
 #include "peis/key.h"
@@ -82,18 +83,30 @@ struct Session {
   std::unique_ptr<Introspector> introspector;
   LiveModel live;
 
-  explicit Session(double waitSeconds) {
+  // `named`: PEIS the command's goals name (consumers, avoided PEIS); the
+  // model waits for them too, within the same wait (a fresh tool PEIS may
+  // have settled before it heard of every PEIS).
+  explicit Session(double waitSeconds, const std::vector<std::string>& named = {}) {
     Options o = peisOptions;
     o.tool = true;
     kernel = std::make_unique<Kernel>(o);
     introspector = std::make_unique<Introspector>(*kernel);
     const auto deadline = Clock::now() + toMs(waitSeconds);
+    const auto left = [&] {
+      return std::max(std::chrono::duration_cast<milliseconds>(deadline - Clock::now()),
+                      milliseconds(1));
+    };
     // Someone must have been heard before "nothing changed for a while" means anything.
     while (kernel->peers().size() < 2 && Clock::now() < deadline)
       std::this_thread::sleep_for(milliseconds(5));
-    const auto left = std::chrono::duration_cast<milliseconds>(deadline - Clock::now());
-    introspector->waitSettled(std::max(left, milliseconds(1)));
+    introspector->waitSettled(left());
     live = introspector->snapshot();
+    for (const auto& name : named) {
+      if (live.findByName(name) || Clock::now() >= deadline) continue;
+      if (!kernel->waitForPeer(name, left())) continue;  // planning names it unknown
+      introspector->waitSettled(left());
+      live = introspector->snapshot();
+    }
   }
 
   // The active configurator, if one is alive.
@@ -115,6 +128,15 @@ struct Session {
 };
 
 std::string goalLine(const InformationGoal& g) { return g.toString(); }
+
+// The PEIS that goals name by name: their consumers and the avoided PEIS.
+std::vector<std::string> peisNamed(const Goals& goals) {
+  std::vector<std::string> names;
+  for (const auto& g : goals.information)
+    if (!g.consumerPeis.empty()) names.push_back(g.consumerPeis);
+  for (const auto& p : goals.constraints.avoidPeis) names.push_back(p);
+  return names;
+}
 
 }  // namespace
 
@@ -177,12 +199,8 @@ int model(const std::vector<std::string>& args) {
 int planLive(const std::vector<std::string>& goalArgs, const std::string& goalsFile, bool json,
              long timeLimitMs, bool first, double waitSeconds) {
   auto goals = Goals::fromArguments(goalArgs);
-  if (!goalsFile.empty()) {
-    const auto more = Goals::fromFile(goalsFile);
-    goals.information.insert(goals.information.end(), more.information.begin(),
-                             more.information.end());
-    goals.run.insert(goals.run.end(), more.run.begin(), more.run.end());
-  }
+  // The file's constraints (avoid, prefer) too, not only its goals.
+  if (!goalsFile.empty()) mergeGoals(goals, Goals::fromFile(goalsFile));
   if (goals.empty()) throw std::invalid_argument("no goal given");
   Session session(waitSeconds);
   ConfigurationPlanner planner(session.live.toModel());
@@ -231,7 +249,8 @@ int apply(const std::vector<std::string>& args) {
     throw std::invalid_argument("--as '" + label + "': " + *problem);
   const double wait = a.has("--wait") ? secondsValue("--wait", a.get("--wait")) : 3.0;
   const double timeout = a.has("--timeout") ? secondsValue("--timeout", a.get("--timeout")) : 15.0;
-  Session session(wait);
+  Goals goals = Goals::fromArguments(lines);
+  Session session(wait, peisNamed(goals));
   const auto cfg = session.configurator();
   if (cfg && !a.has("--dry-run")) {
     // Through the running configurator: post the goals as its goal tuple.
@@ -252,13 +271,24 @@ int apply(const std::vector<std::string>& args) {
     return answer->state == GoalState::Deployed ? 0 : 1;
   }
   // No configurator: plan here and deploy once (nobody watches it afterwards).
-  Goals goals = Goals::fromArguments(lines);
   ConfigurationPlanner planner(session.live.toModel());
   PlanOptions options;
   options.timeLimit = milliseconds(1000);
   const auto result = planner.plan(goals, options);
   std::cout << (a.has("--json") ? formatJson(result) + "\n" : formatText(result));
   if (!result.ok()) return 1;
+  // A PEIS that a launcher would start (id 0): only the configurator starts components.
+  for (const auto& i : result.configuration.instances) {
+    if (i.peisId != 0) continue;
+    const auto where = session.live.launchable(i.peis);
+    std::cout << "PEIS '" << i.peis << "' does not run";
+    if (where)
+      std::cout << "; its launcher '" << where->launcher->name << "' starts it with: peis set "
+                << where->launcher->name << "."
+                << conventions::launchKey(where->component, conventions::kLaunchReqState) << " on";
+    std::cout << " (a running peis-configurator does that by itself)\n";
+    return 1;
+  }
   Deployer deployer(*session.kernel);
   if (a.has("--dry-run")) {
     const auto changes = deployer.pendingChanges(result.configuration, session.live);

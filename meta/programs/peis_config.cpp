@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "monitor/goal_tuples.h"
 #include "peis/error.h"
 #include "peis/meta/planner.h"
 #include "peis/options.h"
@@ -69,15 +70,7 @@ int plan(const std::vector<std::string>& args) {
     return peis::meta::cli::planLive(goalArgs, goalsFile, json, timeLimitMs, first, waitSeconds);
   auto goals = peis::meta::Goals::fromArguments(goalArgs);
   if (!goalsFile.empty()) {
-    auto more = peis::meta::Goals::fromFile(goalsFile);
-    goals.information.insert(goals.information.end(), more.information.begin(),
-                             more.information.end());
-    goals.run.insert(goals.run.end(), more.run.begin(), more.run.end());
-    auto& c = goals.constraints;
-    c.avoidPeis.insert(c.avoidPeis.end(), more.constraints.avoidPeis.begin(),
-                       more.constraints.avoidPeis.end());
-    c.avoid.insert(c.avoid.end(), more.constraints.avoid.begin(), more.constraints.avoid.end());
-    c.prefer.insert(c.prefer.end(), more.constraints.prefer.begin(), more.constraints.prefer.end());
+    peis::meta::mergeGoals(goals, peis::meta::Goals::fromFile(goalsFile));
   }
   if (goals.empty()) throw std::invalid_argument("no goal given");
   peis::meta::ConfigurationPlanner planner(peis::meta::Model::fromFile(modelFile));

@@ -19,7 +19,9 @@ const char* kUsage = R"usage(Usage: peis-configurator [OPTIONS] [--peis-* option
 The meta-level's configurator: keeps a live model of the ecology (published as
 model.live and model.yaml), plans the cheapest configuration for the goal
 tuples any PEIS posts (config.goal.<label>, one goal per line), deploys it,
-watches it and repairs it when a functionality fails. Events:
+watches it and repairs it when a functionality fails. A component that a
+launcher (peis init) declares but does not run is planned with too, and
+started through its launcher when a configuration needs it. Events:
 `peis config events --follow`. docs/configuration.md.
 
 Options:
@@ -32,6 +34,8 @@ Options:
                        (default 30000; doubles each time it fails again)
   --recover-hold-ms N  a failed part must look healthy this long before it is
                        used again (default: twice the grace period)
+  --launch-wait-ms N   how long a component that a launcher (peis init) starts
+                       for a configuration has to join (default 30000)
   --costs FILE         a model file whose link-costs and link-overrides apply
   --write-timeout-ms N deadline of one deployment write (default 2000)
   --lock-wait-ms N     how long to wait for a deployment lock that another
@@ -64,7 +68,7 @@ int main(int argc, char** argv) {
     for (int i = 1; i < argc; ++i) {
       const std::string a = argv[i];
       if (a == "--help" || a == "-h") {
-        std::cout << kUsage << "\nPEIS options:\n" << peis::Options::helpText();
+        std::cout << kUsage << "\n" << peis::Options::helpText();
         return 0;
       }
       if (i + 1 >= argc) throw std::invalid_argument("unknown option or missing value: " + a);
@@ -87,6 +91,8 @@ int main(int argc, char** argv) {
         peisOptions.writeTimeout = std::chrono::milliseconds(number(a, v, 1, 600000));
       } else if (a == "--lock-wait-ms") {
         options.deploy.lockWait = std::chrono::milliseconds(number(a, v, 0, 600000));
+      } else if (a == "--launch-wait-ms") {
+        options.launchWait = std::chrono::milliseconds(number(a, v, 1, 3600000));
       } else if (a == "--costs") {
         const auto model = peis::meta::Model::fromFile(v);
         options.costs = model.linkCosts;

@@ -34,10 +34,11 @@ Literal literal(std::string_view origin, const YAML::Node& node, const std::stri
 std::string variableName(std::string name) { return isVariable(name) ? name : "?" + name; }
 
 Action action(std::string_view origin, const YAML::Node& node) {
-  yaml::onlyKeys(origin, node, {"name", "parameters", "preconditions", "effects", "cost", "needs"},
+  yaml::onlyKeys(origin, node,
+                 {"name", "parameters", "preconditions", "effects", "cost", "needs", "on-failure"},
                  "an action");
   Action a;
-  a.name = yaml::scalar(origin, node["name"], "action name");
+  a.name = yaml::scalar(origin, yaml::field(origin, node, "name", "action name"), "action name");
   if (auto t = Term::parse(a.name); !t || !t->args.empty()) {
     yaml::fail(origin, node["name"], "action name '" + a.name + "' must be one word");
   }
@@ -110,6 +111,21 @@ Action action(std::string_view origin, const YAML::Node& node) {
       a.needs.push_back(text);
     }
   }
+  if (const auto list = node["on-failure"]) {
+    for (const auto& item : yaml::sequence(origin, list, "on-failure")) {
+      yaml::onlyKeys(origin, item, {"cause", "effects"}, "an on-failure entry");
+      FailureEffect f;
+      if (!item["cause"]) yaml::fail(origin, item, "on-failure: cause is missing");
+      f.cause = yaml::scalar(origin, item["cause"], "cause");
+      if (f.cause.empty()) yaml::fail(origin, item, "on-failure: cause is empty");
+      if (!item["effects"]) yaml::fail(origin, item, "on-failure: effects is missing");
+      for (const auto& e : yaml::sequence(origin, item["effects"], "effects")) {
+        f.effects.push_back(literal(origin, e, "effect", false));
+        checkBound(f.effects.back().atom, e);
+      }
+      a.failures.push_back(std::move(f));
+    }
+  }
   return a;
 }
 
@@ -117,7 +133,7 @@ Domain parseDomain(std::string_view text, std::string_view origin) {
   const auto root = yaml::load(text, origin);
   yaml::onlyKeys(origin, root, {"domain", "actions"}, "the domain");
   Domain d;
-  d.name = yaml::scalar(origin, root["domain"], "domain");
+  d.name = yaml::scalar(origin, yaml::field(origin, root, "domain", "domain"), "domain");
   if (!root["actions"]) yaml::fail(origin, root, "actions is missing");
   std::set<std::string> names;
   for (const auto& item : yaml::sequence(origin, root["actions"], "actions")) {
@@ -133,8 +149,8 @@ Problem parseProblem(std::string_view text, std::string_view origin) {
   const auto root = yaml::load(text, origin);
   yaml::onlyKeys(origin, root, {"problem", "domain", "objects", "init", "goal"}, "the problem");
   Problem p;
-  p.name = yaml::scalar(origin, root["problem"], "problem");
-  p.domain = yaml::scalar(origin, root["domain"], "domain");
+  p.name = yaml::scalar(origin, yaml::field(origin, root, "problem", "problem"), "problem");
+  p.domain = yaml::scalar(origin, yaml::field(origin, root, "domain", "domain"), "domain");
   if (const auto objects = root["objects"]) {
     if (!objects.IsMap())
       yaml::fail(origin, objects, "objects must be a mapping: {object: type, …}");

@@ -35,6 +35,7 @@
 #include "sim_clock.h"
 #include "timeline.h"
 #include "trace_writer.h"
+#include "tuple_watch.h"
 
 namespace peis::scenario {
 namespace {
@@ -466,7 +467,6 @@ class Runner {
     for (const auto id : gone) {
       if (!stopping_) say(displayName(id), "left the ecology (PEIS " + std::to_string(id) + ")");
     }
-    resubscribeSilent();
     for (auto& [owner, keys] : watched_) {
       if (resolved_.count(owner)) continue;
       const auto id = idOf(owner);
@@ -576,41 +576,14 @@ class Runner {
     say(displayName(t.owner), words, displayName(t.owner) + "." + t.key + " = " + target);
   }
 
+  // The value already cached counts too (tuple_watch.h: why).
   void watch(const std::string& owner, PeisId id, const std::string& key) {
-    // Callbacks first, then the subscription: a value that arrived before
-    // the callbacks were registered would never be an event (and a fresh
-    // subscription brings the same seqno again, which is no event either).
-    kernel_->onChange(Pattern::exact(id, key),
-                      [this, owner, key](const Tuple& t) { onValue(owner, key, &t); });
-    kernel_->onDelete(Pattern::exact(id, key),
-                      [this, owner, key](const Tuple&) { onValue(owner, key, nullptr); });
-    std::lock_guard lock(mu_);
-    watchedSubscriptions_[{owner, key}] = {id, kernel_->subscribe(Pattern::exact(id, key))};
-  }
-
-  // A watched tuple that has shown no value yet is subscribed to again
-  // every 2 s: a fresh subscription makes its owner send what it has. (Under
-  // heavy load a subscriber was seen to miss an owner's existing tuple for
-  // good; a one-shot value, such as the plant's TiltValue, would then never
-  // reach the conditions.)
-  void resubscribeSilent() {
-    const auto now = Steady::now();
-    if (now < nextResubscribe_) return;
-    nextResubscribe_ = now + 2s;
-    std::lock_guard lock(mu_);
-    for (auto& [watched, subscription] : watchedSubscriptions_) {
-      if (seen_.count(watched)) continue;
-      kernel_->unsubscribe(subscription.second);
-      subscription.second = kernel_->subscribe(Pattern::exact(subscription.first, watched.second));
-    }
+    watches_.push_back(std::make_unique<TupleWatch>(
+        *kernel_, id, key, [this, owner, key](const Tuple* t) { onValue(owner, key, t); }));
   }
 
   // Kernel thread: a watched tuple changed (nullptr: deleted).
   void onValue(const std::string& owner, const std::string& key, const Tuple* t) {
-    if (t) {
-      std::lock_guard lock(mu_);
-      seen_.insert({owner, key});
-    }
     if (t && owner == worldName_ && key == "sim.time") {
       try {
         clock_.worldTime(std::stod(t->data));
@@ -815,11 +788,7 @@ class Runner {
   std::set<PeisId> present_;
   std::set<std::pair<PeisId, std::string>> tracedKeys_;
   std::map<std::pair<PeisId, std::string>, std::string> lastMeta_;  // meta tuples seen
-  // Watched (owner, key) -> (owner id, subscription); those that showed a value.
-  std::map<std::pair<std::string, std::string>, std::pair<PeisId, SubscriptionHandle>>
-      watchedSubscriptions_;
-  std::set<std::pair<std::string, std::string>> seen_;
-  Steady::time_point nextResubscribe_{};
+  std::vector<std::unique_ptr<TupleWatch>> watches_;  // the tuples conditions and narration name
   std::vector<std::string> lastNarrated_;
   std::string lastFault_;
   std::optional<double> lastFaultAt_;

@@ -119,13 +119,23 @@ struct Ecology {
     return std::make_unique<Process>(std::vector<std::string>{buildPath("tiny/tiny-" + app)},
                                      env(std::move(extra)));
   }
-  std::unique_ptr<Process> bridge() const {
-    return std::make_unique<Process>(
-        std::vector<std::string>{buildPath("bridge/peis-tinybridge"), "--link",
-                                 "medium:" + std::to_string(mediumPort) + ":8", "--keys",
-                                 std::string(PEIS_SOURCE_DIR) + "/bridge/keys.yaml", "--registry",
-                                 dir.file("keys.sqlite"), "--peis-ecology", name},
-        env());
+  std::unique_ptr<Process> bridge(std::vector<std::string> extra = {}) const {
+    std::vector<std::string> args{buildPath("bridge/peis-tinybridge"),
+                                  "--link",
+                                  "medium:" + std::to_string(mediumPort) + ":8",
+                                  "--keys",
+                                  std::string(PEIS_SOURCE_DIR) + "/bridge/keys.yaml",
+                                  "--registry",
+                                  dir.file("keys.sqlite"),
+                                  "--peis-ecology",
+                                  name};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return std::make_unique<Process>(args, env());
+  }
+  std::unique_ptr<Process> node(const std::string& app, std::vector<std::string> args,
+                                Process::Environment extra) const {
+    args.insert(args.begin(), buildPath("tiny/tiny-" + app));
+    return std::make_unique<Process>(args, env(std::move(extra)));
   }
   std::unique_ptr<Process> fullPeis(const std::string& id) const {
     return std::make_unique<Process>(
@@ -232,11 +242,22 @@ TEST_CASE("the seed's experiment through the tinybridge, byte for byte on the ra
   auto level = eco.cli({"get", "7.LampLevel", "--wait", "15"});
   CHECK(level.out == "100\n");
 
-  auto ls = eco.cli({"ls"});
-  INFO(ls.out);
-  CHECK(ls.status == 0);
-  for (const char* name : {"plant", "blind", "lamp", "tinybridge"})
-    CHECK(ls.out.find(name) != std::string::npos);
+  // Every node's proxy and the bridge are listed (a node's proxy appears
+  // when the bridge first hears the node: the blind's may come after the
+  // lamp's tuple).
+  std::string listed;
+  const bool all = waitFor(
+      [&] {
+        auto ls = eco.cli({"ls"});
+        listed = ls.out;
+        if (ls.status != 0) return false;
+        for (const char* name : {"plant", "blind", "lamp", "tinybridge"})
+          if (ls.out.find(name) == std::string::npos) return false;
+        return true;
+      },
+      kDeadline);
+  INFO(listed);
+  CHECK(all);
 
   // A full PEIS subscribes to a tiny node's tuple and sets another's.
   peis::Kernel observer(observerOptions(eco.name));
@@ -366,4 +387,122 @@ TEST_CASE("a write to a tiny node that went silent fails, and the node leaves th
   const auto err = bridge->err();
   REQUIRE(std::regex_search(err, dropped, std::regex(R"(dropped (\d+))")));
   CHECK(std::stoi(dropped[1]) >= 30);  // 5 rounds of 6 malformed frames
+}
+
+// Issue 13: a secured radio. The bridge holds the key of the lamp (7) and
+// its own; the lamp holds its own and trusts the bridge's frames and
+// writes. Frames of an open node (8) and of a node the bridge holds no key
+// of (9) are dropped (and no proxy PEIS is made for them); the lamp is an
+// ordinary PEIS of the ecology as before, and every frame the bridge sends
+// is sealed.
+TEST_CASE("a secured radio: the bridge vouches for the nodes it holds keys of",
+          "[integration][fault]") {
+  Ecology eco;
+  Sniffer sniffer(eco.mediumPort);
+  const std::string bridgeKey = "000102030405060708090a0b0c0d0e0f";
+  const std::string lampKey = "a0a1a2a3a4a5a6a7a8a9aaabacadaeaf";
+  const auto keys =
+      eco.dir.write("radio.yaml", "bridge: " + bridgeKey + "\nnodes:\n  7: " + lampKey + "\n");
+  auto bridge = eco.bridge({"--radio-keys", keys});
+  auto astrid = eco.fullPeis("6890");
+  const std::string trust = "65534:" + bridgeKey + ":w";
+  auto lamp = eco.node("lamp", {},
+                       {{"TINY_KEY", lampKey},
+                        {"TINY_TRUST", trust},
+                        {"TINY_COUNTER_FILE", eco.dir.file("lamp.counter")}});
+  auto open = eco.node("lamp", {"--id", "8"}, {});
+  auto stranger = eco.node("lamp", {"--id", "9"},
+                           {{"TINY_KEY", std::string(32, 'c')},
+                            {"TINY_TRUST", trust},
+                            {"TINY_COUNTER_FILE", eco.dir.file("stranger.counter")}});
+  INFO(bridge->describe() + "\n" + lamp->describe());
+  auto joined = eco.cli({"get", "7.kernel.name", "--wait", "15"});
+  REQUIRE(joined.out == "lamp\n");
+  auto light = eco.cli({"set", "6890.LightValue", "100", "--timeout", "15"});
+  REQUIRE(light.status == 0);
+  CHECK(waitFor([&] { return outputHas(*lamp, "lamp light 100"); }, kDeadline));
+  auto level = eco.cli({"get", "7.LampLevel", "--wait", "15"});
+  CHECK(level.out == "100\n");
+  CHECK(waitFor(
+      [&] {
+        const auto err = bridge->err();
+        return err.find("dropped a frame from tiny node 8: not a secured frame") !=
+                   std::string::npos &&
+               err.find("dropped a frame from tiny node 9: the bridge holds no key") !=
+                   std::string::npos;
+      },
+      kDeadline));
+  CHECK(eco.cli({"get", "8.kernel.name", "--wait", "2"}).status != 0);
+  CHECK(eco.cli({"get", "9.kernel.name", "--wait", "2"}).status != 0);
+  // The bridge's frames are all sealed; the lamp took them.
+  const auto unsealed = sniffer.find([](const Bytes& f) {
+    return f.size() >= TINY_FRAME_HEADER_SIZE && le16(f, TINY_FOFF_SRC) == kBridgeTinyId &&
+           f[TINY_FOFF_VERSION] != TINY_SECURED_VERSION;
+  });
+  CHECK_FALSE(unsealed.has_value());
+  // A frame of the lamp replayed on the air is refused.
+  const auto lampFrame = sniffer.find([](const Bytes& f) {
+    return f.size() > TINY_FRAME_HEADER_SIZE && le16(f, TINY_FOFF_SRC) == 7 &&
+           f[0] == TINY_FRAME_TUPLE;
+  });
+  REQUIRE(lampFrame.has_value());
+  sniffer.send(*lampFrame);
+  bridge->kill(SIGINT);
+  REQUIRE(bridge->wait(kDeadline).has_value());
+  CHECK(bridge->err().find("frames refused 0,") == std::string::npos);
+}
+
+// Issue 13, an open radio: made-up node ids get proxies only up to the cap,
+// a node id that a full PEIS holds gets none, and a node's frame carrying
+// another node's tuple is not mirrored.
+TEST_CASE("an open radio: proxies are bounded and forged tuples not mirrored",
+          "[integration][fault]") {
+  Ecology eco;
+  Sniffer sniffer(eco.mediumPort);
+  auto bridge = eco.bridge({"--max-unregistered-nodes", "5"});
+  auto astrid = eco.fullPeis("6890");
+  auto blind = eco.node("blind");
+  REQUIRE(eco.cli({"get", "4.kernel.name", "--wait", "15"}).out == "blind\n");
+  REQUIRE(eco.cli({"get", "6890.kernel.id", "--wait", "15"}).out == "6890\n");
+  // Beacons from 30 made-up ids, and one with the full PEIS's id.
+  for (std::uint16_t id = 1000; id < 1030; ++id) {
+    Bytes f(TINY_FRAME_MAX);
+    f.resize(tiny_encode_beacon_frame(f.data(), id, 1, TINY_BEACON_TINY, 0, 1000));
+    sniffer.send(f);
+  }
+  Bytes impostor(TINY_FRAME_MAX);
+  impostor.resize(tiny_encode_beacon_frame(impostor.data(), 6890, 1, TINY_BEACON_TINY, 0, 1000));
+  sniffer.send(impostor);
+  // A frame from node 1000 with a tuple "of" the blind (key 46, BlindPosition).
+  tiny_tuple forged{};
+  forged.owner = 4;
+  forged.creator = 4;
+  forged.seqno = 0x7fffffff;
+  const tiny_key position = tiny_key1(46);
+  tiny_tuple_set_key_data(&forged, &position, "99", 2);
+  Bytes frame(TINY_FRAME_MAX);
+  frame.resize(tiny_encode_tuple_frame(frame.data(), 1000, TINY_ID_BROADCAST, 2, &forged));
+  sniffer.send(frame);
+  const bool refused = waitFor(
+      [&] {
+        const auto err = bridge->err();
+        return err.find("--max-unregistered-nodes") != std::string::npos &&
+               err.find("no proxy for tiny node 6890: PEIS 6890") != std::string::npos;
+      },
+      kDeadline);
+  INFO(bridge->describe());
+  CHECK(refused);
+  std::size_t joined = 0;
+  const auto err = bridge->err();
+  for (auto at = err.find("joined as PEIS 'tiny-1"); at != std::string::npos;
+       at = err.find("joined as PEIS 'tiny-1", at + 1)) {
+    ++joined;
+  }
+  INFO(bridge->describe());
+  CHECK(joined == 5);
+  CHECK(eco.cli({"get", "6890.kernel.id"}).out == "6890\n");
+  CHECK(eco.cli({"get", "4.BlindPosition", "--wait", "2"}).out != "99\n");
+  bridge->kill(SIGINT);
+  REQUIRE(bridge->wait(kDeadline).has_value());
+  CHECK(bridge->err().find("forged tuples 1") != std::string::npos);
 }

@@ -171,7 +171,10 @@ TEST_CASE("unknown keys are rejected with their line", "[unit][descriptor]") {
 
 TEST_CASE("the component is required and must be one key part", "[unit][descriptor]") {
   CHECK_THAT(failure("functionalities: []\n", "nocomp.yaml"),
-             StartsWith("nocomp.yaml") && Contains("component is missing"));
+             StartsWith("nocomp.yaml:1:") && Contains("component is missing"));
+  // A missing key is named with the line of the mapping that lacks it.
+  CHECK_THAT(failure("# a comment\n\nfunctionalities: []\n", "nocomp.yaml"),
+             StartsWith("nocomp.yaml:3:") && Contains("component is missing"));
   CHECK_THAT(failure("component: a.b\n"), StartsWith("camera.yaml:1:") && Contains("'a.b'"));
   CHECK_THAT(failure("component: [a, b]\n"), StartsWith("camera.yaml:1:") && Contains("component"));
   CHECK_THAT(failure("component: two words\n"), Contains("component"));
@@ -182,7 +185,7 @@ TEST_CASE("functionality names must be single key parts", "[unit][descriptor]") 
              StartsWith("camera.yaml:3:") && Contains("'capture.fast'"));
   CHECK_THAT(failure("component: a\nfunctionalities:\n  - name: \"x*\"\n"), Contains("'x*'"));
   CHECK_THAT(failure("component: a\nfunctionalities:\n  - description: nameless\n"),
-             StartsWith("camera.yaml") && Contains("functionality name is missing"));
+             StartsWith("camera.yaml:3:") && Contains("functionality name is missing"));
 }
 
 TEST_CASE("a functionality may be declared only once", "[unit][descriptor]") {
@@ -225,8 +228,10 @@ TEST_CASE("ports need a key-part name and a one-word type", "[unit][descriptor]"
   CHECK_THAT(failure(head + "      - {name: x, type: \"\"}\n"), Contains("not a term"));
   CHECK_THAT(failure(head + "      - {name: a.b, type: t}\n"),
              StartsWith("camera.yaml:5:") && Contains("'a.b'"));
-  CHECK_THAT(failure(head + "      - {name: x}\n"), Contains("inputs type is missing"));
-  CHECK_THAT(failure(head + "      - {type: t}\n"), Contains("inputs name is missing"));
+  CHECK_THAT(failure(head + "      - {name: x}\n"),
+             StartsWith("camera.yaml:5:") && Contains("inputs type is missing"));
+  CHECK_THAT(failure(head + "      - {type: t}\n"),
+             StartsWith("camera.yaml:5:") && Contains("inputs name is missing"));
 }
 
 TEST_CASE("fromFile reads a file and names it in errors", "[unit][descriptor]") {

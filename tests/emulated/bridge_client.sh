@@ -8,6 +8,7 @@
 #                    [SOURCE IN_KEY NODE OUT_KEY VALUE]
 #   e.g. blind: ... 3 TiltValue 4 BlindPosition 0
 #
+# BRIDGE_OPTIONS: more options for the bridge (e.g. --radio-keys FILE).
 # Everything runs in an ecology of its own (discovery stays on loopback);
 # the processes it starts are stopped by pid. Exit 0 on success.
 set -u
@@ -37,8 +38,9 @@ finish() {
 trap finish EXIT
 trap 'exit 143' TERM
 
+# shellcheck disable=SC2086 # BRIDGE_OPTIONS is a list of words
 "$bridge" --link "unix:$sock" --keys "$keys" --registry "$dir/keys.sqlite" \
-  --peis-ecology "$eco" >"$dir/bridge.log" 2>&1 &
+  --peis-ecology "$eco" ${BRIDGE_OPTIONS:-} >"$dir/bridge.log" 2>&1 &
 pids+=($!)
 "$peis" node --peis-id "$source_id" --peis-ecology "$eco" >"$dir/full.log" 2>&1 &
 pids+=($!)

@@ -20,6 +20,8 @@
 #   --tool PATH        the simavr_uart_socket program (simavr only)
 #   --mcu NAME         simavr MCU (default atmega128)
 #   --freq HZ          simavr clock (default 16000000, the port's F_CPU)
+#   --eeprom FILE      the EEPROM's contents (simavr only), e.g. a secured
+#                      radio's keys (secured_radio.sh)
 #   --limit SECONDS    emulator wall-clock limit (default 60; always under
 #                      `timeout`)
 #   --client-limit S   client wall-clock limit (default 45)
@@ -30,12 +32,13 @@
 set -uo pipefail
 
 SKIP=77
-tool="" mcu=atmega128 freq=16000000 limit=60 client_limit=45
+tool="" mcu=atmega128 freq=16000000 limit=60 client_limit=45 eeprom=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --tool) tool=$2; shift 2 ;;
     --mcu) mcu=$2; shift 2 ;;
     --freq) freq=$2; shift 2 ;;
+    --eeprom) eeprom=(--eeprom "$2"); shift 2 ;;
     --limit) limit=$2; shift 2 ;;
     --client-limit) client_limit=$2; shift 2 ;;
     --skip) echo "SKIP: $2"; exit $SKIP ;;
@@ -115,7 +118,7 @@ case "$emulator" in
     ;;
   simavr)
     timeout "$limit" "$tool" --socket "$sock" --mcu "$mcu" --freq "$freq" \
-      --time-limit "$limit" "$firmware" </dev/null >"$log" 2>&1 &
+      --time-limit "$limit" "${eeprom[@]}" "$firmware" </dev/null >"$log" 2>&1 &
     emu_pid=$!
     ;;
 esac

@@ -79,3 +79,47 @@ TEST_CASE("executor: Emil's task is planned and replanned from the state reached
   const auto none = planFrom(home(), wakeup(), parseTask("at(johanna, sofa)"));
   CHECK_FALSE(none.found);
 }
+
+TEST_CASE("executor: a failed step's on-failure effects shape the replan (the dark photo)",
+          "[unit][executor]") {
+  const auto photo = Problem::fromFile(PEIS_SOURCE_DIR "/scenarios/tasks/photo-sofa.problem.yaml");
+  const auto goal = parseTask("photo(sofa)");
+  const auto first = planFrom(home(), photo, goal);
+  REQUIRE(first.found);
+  CHECK(first.text == "GoTo(astrid, sofa); TakePhoto(astrid, sofa)");
+  const std::vector<PlanStep> done{first.steps[0]};
+  const FailedStep dark{first.steps[1],
+                        "TakePhoto(astrid, sofa) failed on astrid-camera: too dark (brightness "
+                        "31.5 < 70)",
+                        1};
+  const auto state = stateAfter(home(), photo, done, {dark});
+  CHECK(holds(state, "at(astrid, sofa)"));
+  CHECK_FALSE(holds(state, "lit(sofa)"));
+  const auto replanned = planFrom(home(), photo, goal, done, {dark});
+  REQUIRE(replanned.found);
+  CHECK(replanned.text == "TurnOn(lamp); TakePhoto(astrid, sofa)");
+  CHECK(replanned.steps[0].needs == std::vector<std::string>{"lamp-level(lamp)"});
+  // The photo is taken again before the light has changed: dark again. What
+  // the first failure taught is kept (else TurnOn would not fit the state
+  // and there would be no plan): TurnOn again, then the photo.
+  const std::vector<PlanStep> twice{first.steps[0], replanned.steps[0]};
+  const FailedStep darkAgain{replanned.steps[1], dark.cause, 2};
+  const auto again = planFrom(home(), photo, goal, twice, {dark, darkAgain});
+  REQUIRE(again.found);
+  CHECK(again.text == "TurnOn(lamp); TakePhoto(astrid, sofa)");
+  // A cause the domain says nothing about teaches nothing: a plain retry.
+  const FailedStep other{first.steps[1], "TakePhoto(astrid, sofa) on astrid-camera timed out", 1};
+  CHECK(planFrom(home(), photo, goal, done, {other}).text == "TakePhoto(astrid, sofa)");
+}
+
+TEST_CASE("executor: set: rules are carried out by the executor's own write", "[unit][executor]") {
+  ActionMap map;
+  map.add("TurnOn=set:LightValue=100");
+  std::string why;
+  const auto d = map.map(PlanStep{"TurnOn", {"lamp"}, {}}, why);
+  REQUIRE(d);
+  CHECK(d->setKey == "LightValue");
+  CHECK(d->goal == "100");
+  CHECK(d->peis.empty());
+  CHECK_THROWS_WITH(map.add("TurnOn=set:LightValue"), Contains("expected NAME=set:KEY=VALUE"));
+}

@@ -1,13 +1,15 @@
 #!/usr/bin/env bash
 # Fuzzes a decoder with libFuzzer for a bounded time.
 #
-#   tests/fuzz/run_fuzz.sh BUILD_DIR [wire|tiny]
+#   tests/fuzz/run_fuzz.sh BUILD_DIR [wire|tiny|secured]
 #
 # wire (default): compiles tests/fuzz/wire_fuzz.cpp with clang++
 # (-fsanitize=fuzzer,address,undefined) into BUILD_DIR/fuzz/ and writes a
 # seed corpus of valid frames with tests/fuzz/write_seeds.cpp. tiny: compiles
 # tiny/fuzz/tiny_decode_fuzz.c (the Tiny PEIS-kernel's radio-frame decoder)
-# into BUILD_DIR/fuzz-tiny/, starting from an empty corpus. Either then runs
+# into BUILD_DIR/fuzz-tiny/, starting from an empty corpus. secured: compiles
+# tests/fuzz/secured_fuzz.cpp (a secured link's auth field, identities and
+# records, with libsodium) into BUILD_DIR/fuzz-secured/. Each then runs
 # the fuzzer for PEIS_FUZZ_SECONDS
 # (default 20). Exits non-zero when the fuzzer finds a crash, a leak or a
 # sanitizer error (the input is kept as BUILD_DIR/fuzz/crash-*), and 0 with
@@ -16,13 +18,14 @@
 set -euo pipefail
 
 root=$(cd "$(dirname "$0")/../.." && pwd)
-build=${1:?usage: run_fuzz.sh BUILD_DIR [wire|tiny]}
+build=${1:?usage: run_fuzz.sh BUILD_DIR [wire|tiny|secured]}
 target=${2:-wire}
-case "$target" in wire | tiny) ;; *) echo "unknown fuzz target '$target'" >&2; exit 2 ;; esac
+case "$target" in wire | tiny | secured) ;; *) echo "unknown fuzz target '$target'" >&2; exit 2 ;; esac
 mkdir -p "$build"
 build=$(cd "$build" && pwd)
 out="$build/fuzz"
 [ "$target" = tiny ] && out="$build/fuzz-tiny"
+[ "$target" = secured ] && out="$build/fuzz-secured"
 seconds=${PEIS_FUZZ_SECONDS:-20}
 
 skip() {
@@ -65,11 +68,21 @@ if [ "$target" = wire ]; then
     -o "$out/fuzzer"
   "$cxx" "${flags[@]}" "$root/tests/fuzz/write_seeds.cpp" "${sources[@]}" -o "$out/write_seeds"
   "$out/write_seeds" "$out/seeds"
+elif [ "$target" = secured ]; then
+  flags=(-std=c++20 -O1 -g -I "$root/kernel/include" -I "$root/kernel/src")
+  sources=("$root/kernel/src/security/certificate.cpp" "$root/kernel/src/security/identity.cpp"
+    "$root/kernel/src/security/link_handshake.cpp" "$root/kernel/src/security/record_cipher.cpp"
+    "$root/kernel/src/security/crypto.cpp" "$root/kernel/src/security/credentials.cpp"
+    "$root/kernel/src/security/yaml_file.cpp" "$root/kernel/src/key.cpp")
+  echo "==> compiling the secured-link fuzzer with $cxx"
+  "$cxx" "${flags[@]}" "${sanitize[@]}" "$root/tests/fuzz/secured_fuzz.cpp" "${sources[@]}" \
+    -lsodium -lcrypto -lyaml-cpp -o "$out/fuzzer"
 else
   cc=${cxx/clang++/clang}
   echo "==> compiling the tiny frame fuzzer with $cc"
   "$cc" -std=c99 -O1 -g -I "$root/tiny/include" "${sanitize[@]}" \
-    "$root/tiny/fuzz/tiny_decode_fuzz.c" "$root/tiny/src/tiny_tuple.c" -o "$out/fuzzer"
+    "$root/tiny/fuzz/tiny_decode_fuzz.c" "$root/tiny/src/tiny_tuple.c" "$root/tiny/src/tiny_mac.c" \
+    -o "$out/fuzzer"
 fi
 rm -f "$out"/crash-* "$out"/leak-* "$out"/timeout-* "$out"/oom-*
 

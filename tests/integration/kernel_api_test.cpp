@@ -2,7 +2,10 @@
 // a remote write's ttl makes the owner delete the tuple when it expires.
 #include <atomic>
 #include <catch2/catch.hpp>
+#include <mutex>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "peis/kernel.h"
 #include "support/integration.h"
@@ -60,4 +63,38 @@ TEST_CASE("a remote write's ttl: the owner deletes the tuple when it expires", "
   CHECK_FALSE(owner.get("lease").has_value());
   CHECK(peis::test::valueOf(owner, owner.id(), "kernel.all-keys").find("lease") ==
         std::string::npos);
+}
+
+// A value cached by one subscription, asked for again by a second one: the
+// owner's full sync brings the same seqno, no change. onChange registered
+// then sees nothing of it; onValue hands it over at once, then the changes.
+TEST_CASE("onValue hands a remote value already cached, onChange only later changes",
+          "[integration]") {
+  const auto ecology = uniqueEcology("on-value");
+  peis::Kernel owner(kernelOptions(ecology, "owner"));
+  peis::Kernel reader(kernelOptions(ecology, "reader"));
+  owner.set("x", "1");
+  reader.subscribe(peis::Pattern::exact(owner.id(), "x"));
+  REQUIRE(waitFor([&] { return reader.get(owner.id(), "x").has_value(); }, kDeadline));
+  std::mutex mu;
+  std::vector<std::string> values, changes;
+  reader.onChange(peis::Pattern::exact(owner.id(), "x"), [&](const peis::Tuple& t) {
+    std::lock_guard lock(mu);
+    changes.push_back(t.data);
+  });
+  reader.onValue(peis::Pattern::exact(owner.id(), "x"), [&](const peis::Tuple& t) {
+    std::lock_guard lock(mu);
+    values.push_back(t.data);
+  });
+  reader.subscribe(peis::Pattern::exact(owner.id(), "x"));  // a second full sync: the same seqno
+  owner.set("x", "2");
+  REQUIRE(waitFor(
+      [&] {
+        std::lock_guard lock(mu);
+        return values.size() == 2 && changes.size() == 1;
+      },
+      kDeadline));
+  std::lock_guard lock(mu);
+  CHECK(values == std::vector<std::string>{"1", "2"});
+  CHECK(changes == std::vector<std::string>{"2"});
 }

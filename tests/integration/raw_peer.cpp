@@ -3,6 +3,7 @@
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
+#include <poll.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
@@ -67,6 +68,15 @@ bool RawPeer::closedByPeer() {
     if (n == 0) return true;
     if (n < 0) return errno != EAGAIN && errno != EWOULDBLOCK;
   }
+}
+
+bool RawPeer::closedWithin(std::chrono::milliseconds timeout) {
+  pollfd poll{fd_, POLLIN, 0};
+  if (::poll(&poll, 1, static_cast<int>(timeout.count())) <= 0) return false;
+  char buffer[4096];
+  const auto n = recv(fd_, buffer, sizeof buffer, MSG_DONTWAIT);
+  if (n > 0) in_.append(buffer, static_cast<std::size_t>(n));
+  return n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK);
 }
 
 std::optional<std::string> RawPeer::readFrame(std::chrono::milliseconds timeout) {

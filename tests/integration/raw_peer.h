@@ -36,6 +36,8 @@ class RawPeer {
   // True once the PEIS closed the connection (read returns 0 or an error
   // other than a timeout), draining whatever it sent before.
   bool closedByPeer();
+  // The same, waiting at most `timeout` (false while it is still open).
+  bool closedWithin(std::chrono::milliseconds timeout);
   // The next whole frame's type and body (nullopt on a timeout or close).
   std::optional<std::string> readFrame(std::chrono::milliseconds timeout);
 

@@ -140,7 +140,7 @@ TEST_CASE("back-to-back peis commands all succeed and leave no ghosts", "[integr
         worst = peersText(observer);
       }
     }
-    std::this_thread::sleep_for(2ms);
+    std::this_thread::sleep_for(2ms);  // the sampling period of the hop counts (not a wait)
   }
   commands.join();
 

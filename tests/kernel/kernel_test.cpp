@@ -475,6 +475,34 @@ TEST_CASE("Kernel onChange and onDelete see only their events", "[unit][kernel]"
   CHECK(deletes == std::vector<std::string>{"door.front=closed"});
 }
 
+TEST_CASE("Kernel onValue starts with the values held, then every change, each once",
+          "[unit][kernel]") {
+  std::mutex mu;
+  std::vector<std::string> values, changes;
+  peis::Kernel k(testOptions());
+  k.set("door.front", "open");
+  k.set("door.back", "closed");
+  k.set("window.front", "open");
+  k.onChange(peis::Pattern("door.*"), [&](const peis::Tuple& t) {
+    std::lock_guard lock(mu);
+    changes.push_back(t.key + "=" + t.data);
+  });
+  k.onValue(peis::Pattern("door.*"), [&](const peis::Tuple& t) {
+    std::lock_guard lock(mu);
+    values.push_back(t.key + "=" + t.data);
+  });
+  k.set("door.front", "closed");
+  REQUIRE(waitFor([&] {
+    std::lock_guard lock(mu);
+    return values.size() == 3 && changes.size() == 1;
+  }));
+  std::lock_guard lock(mu);
+  // The held ones first (in key order), then the change; onChange only the change.
+  CHECK(values ==
+        std::vector<std::string>{"door.back=closed", "door.front=open", "door.front=closed"});
+  CHECK(changes == std::vector<std::string>{"door.front=closed"});
+}
+
 TEST_CASE("Kernel callback that removes itself is not called again", "[unit][kernel]") {
   std::atomic<int> selfCalls{0}, markerCalls{0};
   std::atomic<peis::CallbackHandle> handle{0};

@@ -2,6 +2,7 @@
 #include "peis/options.h"
 
 #include <catch2/catch.hpp>
+#include <chrono>
 #include <string>
 #include <utility>
 #include <vector>
@@ -330,4 +331,48 @@ TEST_CASE("helpText mentions every flag", "[unit][options]") {
     INFO("flag: " << flag);
     CHECK_THAT(text, Contains(flag));
   }
+}
+
+TEST_CASE("the limits' flags (docs/security.md)", "[unit][options]") {
+  const auto defaults = parse({}).limits;
+  CHECK(defaults.handshake == std::chrono::milliseconds(5000));
+  CHECK(defaults.maxConnections == 256);
+  CHECK(defaults.relayGrace == std::chrono::milliseconds(2000));
+  const auto o = parse({"--peis-handshake-ms",
+                        "300",
+                        "--peis-max-connections",
+                        "7",
+                        "--peis-max-handshakes-per-host",
+                        "3",
+                        "--peis-max-routes",
+                        "99",
+                        "--peis-max-held-bytes=4096",
+                        "--peis-quota-keys",
+                        "5",
+                        "--peis-quota-bytes",
+                        "6",
+                        "--peis-quota-total-keys",
+                        "8",
+                        "--peis-quota-total-bytes",
+                        "9",
+                        "--peis-id-claim-ms",
+                        "0",
+                        "--peis-relay-grace-ms",
+                        "250"})
+                     .limits;
+  CHECK(o.handshake == std::chrono::milliseconds(300));
+  CHECK(o.maxConnections == 7);
+  CHECK(o.maxHandshakesPerHost == 3);
+  CHECK(o.maxRoutes == 99);
+  CHECK(o.maxHeldBytes == 4096);
+  CHECK(o.quotaKeys == 5);
+  CHECK(o.quotaBytes == 6);
+  CHECK(o.quotaTotalKeys == 8);
+  CHECK(o.quotaTotalBytes == 9);
+  CHECK(o.idClaimWindow == std::chrono::milliseconds(0));
+  CHECK(o.relayGrace == std::chrono::milliseconds(250));
+  CHECK_THAT(failure({"--peis-handshake-ms", "99"}), Contains("--peis-handshake-ms"));
+  CHECK_THAT(failure({"--peis-max-routes", "0"}), Contains("--peis-max-routes"));
+  CHECK_THAT(failure({"--peis-relay-grace-ms", "60001"}), Contains("--peis-relay-grace-ms"));
+  CHECK_THAT(failure({"--peis-id-claim-ms", "-1"}), Contains("--peis-id-claim-ms"));
 }

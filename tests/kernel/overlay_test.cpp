@@ -66,6 +66,8 @@ TEST_CASE("beacons round-trip and every malformed beacon is rejected", "[unit][o
   REQUIRE(decodeBeacon(bytes) == beacon);
   const Beacon tool{"home", 6891, 5, 40124, false, true};  // flags bit 1: a tool PEIS
   REQUIRE(decodeBeacon(encodeBeacon(tool)) == tool);
+  const Beacon secured{"home", 6892, 5, 40125, false, false, true};  // bit 2: a secured ecology
+  REQUIRE(decodeBeacon(encodeBeacon(secured)) == secured);
   CHECK(bytes.size() == 4 + 2 + 1 + 4 + 4 + 8 + 2 + 1);
   CHECK(bytes.substr(0, 4) == "PEIB");
 
@@ -80,9 +82,9 @@ TEST_CASE("beacons round-trip and every malformed beacon is rejected", "[unit][o
     return decodeBeacon(copy);
   };
   CHECK_FALSE(corrupt(0, 'X'));               // magic
-  CHECK_FALSE(corrupt(5, 1));                 // version 1 (the protocol is version 2)
+  CHECK_FALSE(corrupt(5, 1));                 // version 1 (the protocol is version 3)
   CHECK_FALSE(corrupt(11, '\x80'));           // id becomes negative
-  CHECK_FALSE(corrupt(bytes.size() - 1, 4));  // flags > 3
+  CHECK_FALSE(corrupt(bytes.size() - 1, 8));  // flags > 7
   auto noPort = beacon;
   noPort.port = 0;
   CHECK_FALSE(decodeBeacon(encodeBeacon(noPort)));

@@ -430,3 +430,148 @@ TEST_CASE("routing: a tool PEIS is marked and relays for nobody", "[unit][routin
   CHECK(e.at(4).find(2)->tool);  // from the route entry's flag, two hops away
   CHECK_FALSE(e.at(4).find(3)->tool);
 }
+
+// Issue 13: what a hostile neighbour can make a routing table do.
+namespace {
+
+RoutingTable tableOf(PeisId self, std::size_t maxRoutes = 4096) {
+  RoutingTable::Config config;
+  config.self = self;
+  config.incarnation = 1;
+  config.name = "p" + std::to_string(self);
+  config.maxRoutes = maxRoutes;
+  return RoutingTable(config);
+}
+
+wire::Hello helloOf(PeisId id, std::uint64_t incarnation = 1) {
+  return wire::Hello{wire::kVersion, "eco", id, incarnation, "p" + std::to_string(id), 0, 0u, ""};
+}
+
+}  // namespace
+
+TEST_CASE("routing: a big advert is merged as if applied entry by entry", "[unit][routing]") {
+  std::mt19937 random(13);
+  for (int round = 0; round < 20; ++round) {
+    auto merged = tableOf(1), oneByOne = tableOf(1);
+    for (auto* t : {&merged, &oneByOne}) t->linkUp(helloOf(2));
+    std::vector<wire::RouteEntry> advert;
+    for (int i = 0; i < 300; ++i) {
+      const PeisId id = 10 + static_cast<PeisId>(random() % 200);  // repeats, any order
+      const auto hops = static_cast<std::uint8_t>(random() % 4 == 0 ? 255 : 1 + random() % 5);
+      advert.push_back(wire::RouteEntry{id, hops, 0, 1, static_cast<std::uint32_t>(i), "x"});
+    }
+    auto copy = advert;
+    merged.onRoutes(2, copy);  // over the merge threshold: one sorted merge
+    for (const auto& entry : advert) {
+      std::vector<wire::RouteEntry> one{entry};
+      oneByOne.onRoutes(2, one);
+    }
+    merged.recompute({});
+    oneByOne.recompute({});
+    CHECK(merged.routes() == oneByOne.routes());
+  }
+}
+
+TEST_CASE("routing: tables and adverts are bounded by maxRoutes", "[unit][routing]") {
+  auto table = tableOf(1, 100);
+  table.linkUp(helloOf(2));
+  table.linkUp(helloOf(3));
+  std::vector<wire::RouteEntry> flood;
+  for (PeisId id = 2000000000; flood.size() < 65534; --id) {  // descending, as the attack
+    flood.push_back(wire::RouteEntry{id, 1, 0, 7, 1, "f"});
+  }
+  table.onRoutes(2, flood);
+  table.recompute({});
+  CHECK(table.routes().size() <= 101);
+  CHECK(table.refused() >= 65534 - 100);
+  // The linked PEIS stay in however full the table is.
+  CHECK(table.contains(2));
+  CHECK(table.contains(3));
+  // What it tells a neighbour is bounded too.
+  CHECK(table.fullAdvert(3).entries.size() <= 101);
+}
+
+TEST_CASE("routing: a linked PEIS's route and life are its own link's", "[unit][routing]") {
+  auto table = tableOf(1);
+  table.linkUp(helloOf(2, 50));  // linked, incarnation 50
+  table.linkUp(helloOf(3));      // the hostile neighbour
+  table.recompute({});
+  // 3 offers 2 as a "newer life" with a high seqno, then says it left.
+  std::vector<wire::RouteEntry> lie{{2, 1, 0, 51, 1000, "p2"}};
+  table.onRoutes(3, lie);
+  table.recompute({});
+  CHECK(table.find(2)->nextHop == 2);
+  CHECK(table.find(2)->incarnation == 50);
+  CHECK_FALSE(table.onLeave(3, wire::Leave{2, 50}, {}));
+  table.recompute({});
+  CHECK(table.contains(2));
+  // 2 itself may say so.
+  CHECK(table.onLeave(2, wire::Leave{2, 50}, {}));
+  // A Leave of a PEIS nobody offers is not remembered (nor passed on).
+  CHECK_FALSE(table.onLeave(3, wire::Leave{424242, 1}, {}));
+}
+
+TEST_CASE("routing: who may relay a source's frames", "[unit][routing]") {
+  auto table = tableOf(1);
+  for (PeisId n : {2, 3, 4}) table.linkUp(helloOf(n));
+  std::vector<wire::RouteEntry> viaTwo{{9, 1, 0, 1, 1, "p9"}};
+  std::vector<wire::RouteEntry> viaThree{{9, 1, 0, 1, 1, "p9"}};
+  std::vector<wire::RouteEntry> farFour{{9, 3, 0, 1, 1, "p9"}};
+  table.onRoutes(2, viaTwo);
+  table.onRoutes(3, viaThree);
+  table.onRoutes(4, farFour);
+  const auto now = RoutingTable::Time{} + 10s;
+  table.recompute(now);
+  REQUIRE(table.find(9)->hops == 2);
+  CHECK(table.mayRelay(table.find(9)->nextHop, 9, now, 2s));
+  CHECK(table.mayRelay(2, 9, now, 2s));  // an equal route (asymmetric paths)
+  CHECK(table.mayRelay(3, 9, now, 2s));
+  CHECK_FALSE(table.mayRelay(4, 9, now, 2s));  // a longer one: not a way 9's frames come
+  // A linked PEIS's frames come over its own link only.
+  CHECK_FALSE(table.mayRelay(3, 2, now, 2s));
+  // An unknown source: held until its route comes, then asked again.
+  CHECK(table.mayRelay(4, 77, now, 2s));
+  // A PEIS that links just after sending through 3 (which offers it): its
+  // frames relayed by 3 are taken for 2 s after the link came up, and only
+  // from a neighbour offering a route to it.
+  std::vector<wire::RouteEntry> threeOffersFive{{9, 1, 0, 1, 1, "p9"}, {5, 1, 0, 1, 1, "p5"}};
+  table.onRoutes(3, threeOffersFive);
+  const auto linked = now + 1s;
+  table.linkUp(helloOf(5));
+  table.recompute(linked);
+  REQUIRE(table.find(5)->nextHop == 5);
+  CHECK(table.mayRelay(3, 5, linked + 1s, 2s));
+  CHECK_FALSE(table.mayRelay(4, 5, linked + 1s, 2s));
+  CHECK_FALSE(table.mayRelay(3, 5, linked + 3s, 2s));
+}
+
+TEST_CASE("routing: a relay tells its next hop the route to a source as it is now",
+          "[unit][routing]") {
+  auto table = tableOf(1);
+  for (PeisId n : {2, 3}) table.linkUp(helloOf(n));
+  std::vector<wire::RouteEntry> farNine{{9, 2, 0, 1, 1, "p9"}};
+  table.onRoutes(3, farNine);
+  const auto now = RoutingTable::Time{} + 10s;
+  table.recompute(now);
+  REQUIRE(table.find(9)->hops == 3);
+  table.fullAdvert(2);
+  CHECK_FALSE(table.tellNow(2, 9));  // told with the full advert
+  // 9 links to us: 2 was told a route of 3 hops, and would take 9's frames
+  // relayed by us for spoofed until it hears of the shorter one.
+  table.linkUp(helloOf(9));
+  table.recompute(now + 1s);
+  const auto told = table.tellNow(2, 9);
+  REQUIRE(told);
+  REQUIRE(told->entries.size() == 1);
+  CHECK(told->entries[0].hops == 1);
+  CHECK_FALSE(table.tellNow(2, 9));
+}
+
+TEST_CASE("routing: a seqno request far above its own seqno is made up", "[unit][routing]") {
+  auto table = tableOf(1);
+  table.linkUp(helloOf(2));
+  table.onSeqnoRequest(2, wire::SeqnoRequest{1, 1, 0xffffffff, 5}, {});
+  CHECK(table.ownSeqno() == 0);
+  table.onSeqnoRequest(2, wire::SeqnoRequest{1, 1, 1, 5}, {});
+  CHECK(table.ownSeqno() == 1);
+}

@@ -131,6 +131,9 @@ std::vector<std::pair<std::string, std::string>> sampleFrames() {
   frames.emplace_back("IdTaken", frameOf(LinkMessage{IdTaken{7, 70}}));
   frames.emplace_back("Leave", frameOf(LinkMessage{Leave{7, 70}}));
   frames.emplace_back("SeqnoRequest", frameOf(LinkMessage{SeqnoRequest{7, 70, 3, 32}}));
+  frames.emplace_back("Auth", frameOf(LinkMessage{Auth{"identity", std::string(64, 's')}}));
+  frames.emplace_back("Identity", frameOf(LinkMessage{Identity{"identity"}}));
+  frames.emplace_back("SourceTag", frameOf(LinkMessage{SourceTag{std::string(16, 't')}}));
   const auto env = sampleEnvelope();
   frames.emplace_back("Subscribe (owner)",
                       frameOf(RoutedMessage{env, Subscribe{5, 6000, PeisId{7}, "robot.*.x"}}));
@@ -176,6 +179,13 @@ TEST_CASE("wire: link messages round-trip", "[unit][wire]") {
     checkLinkRoundTrip(Routes{});
     checkLinkRoundTrip(Routes{
         {{1, 0, 0, 10, 0, "a"}, {kMaxPeisId, 32, 0xff, ~0ull, ~0u, ""}, {5, 255, 1, 0, 7, "bob"}}});
+  }
+  SECTION("Auth, Identity, SourceTag (secured ecologies)") {
+    CHECK(frameOf(LinkMessage{Auth{"ab", std::string(64, '\x11')}}) ==
+          hex("00 00 00 45 08 00 02 61 62") + std::string(64, '\x11'));
+    CHECK(frameOf(LinkMessage{Identity{"ab"}}) == hex("00 00 00 05 09 00 02 61 62"));
+    CHECK(frameOf(LinkMessage{SourceTag{std::string(16, '\x22')}}) ==
+          hex("00 00 00 11 0a") + std::string(16, '\x22'));
   }
   SECTION("IdTaken") {
     checkLinkRoundTrip(IdTaken{1, 0});
@@ -261,6 +271,13 @@ TEST_CASE("wire: byte layout is big-endian and exact", "[unit][wire]") {
     CHECK(frameOf(LinkMessage{Pong{0x0102030405060708ull}}) ==
           hex("00 00 00 09 03 01 02 03 04 05 06 07 08"));
   }
+  SECTION("Auth, Identity, SourceTag (secured ecologies)") {
+    CHECK(frameOf(LinkMessage{Auth{"ab", std::string(64, '\x11')}}) ==
+          hex("00 00 00 45 08 00 02 61 62") + std::string(64, '\x11'));
+    CHECK(frameOf(LinkMessage{Identity{"ab"}}) == hex("00 00 00 05 09 00 02 61 62"));
+    CHECK(frameOf(LinkMessage{SourceTag{std::string(16, '\x22')}}) ==
+          hex("00 00 00 11 0a") + std::string(16, '\x22'));
+  }
   SECTION("IdTaken") {
     CHECK(frameOf(LinkMessage{IdTaken{0x01020304, 0x1122334455667788ull}}) ==
           hex("00 00 00 0d 05 01 02 03 04 11 22 33 44 55 66 77 88"));
@@ -276,7 +293,7 @@ TEST_CASE("wire: byte layout is big-endian and exact", "[unit][wire]") {
     h.auth = "";
     CHECK(frameOf(LinkMessage{h}) == hex("00 00 00 21 01"
                                          "50 45 49 53"              // magic "PEIS"
-                                         "00 02"                    // version
+                                         "00 03"                    // version
                                          "03 65 63 6f"              // str8 "eco"
                                          "00 00 00 07"              // id
                                          "11 22 33 44 55 66 77 88"  // incarnation
@@ -434,7 +451,7 @@ TEST_CASE("wire: malformed frames are rejected with a reason", "[unit][wire]") {
   SECTION("empty frame") { CHECK(rejectBody(std::string_view{}) == "empty frame"); }
 
   SECTION("unknown message types") {
-    for (int type : {0, 8, 9, 15, 23, 24, 127, 255}) {
+    for (int type : {0, 11, 12, 15, 23, 24, 127, 255}) {
       INFO("type " << type);
       std::string body(1, static_cast<char>(type));
       CHECK(rejectBody(body).find("unknown message type") != std::string::npos);

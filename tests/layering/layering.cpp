@@ -12,9 +12,9 @@ namespace {
 constexpr std::string_view kBegin = "<!-- layering:begin -->";
 constexpr std::string_view kEnd = "<!-- layering:end -->";
 
-const std::set<std::string> kCategories = {"c",        "c++",        "system", "boost",  "yaml-cpp",
-                                           "sqlite",   "catch2",     "eigen",  "opencv", "simavr",
-                                           "avr-libc", "cyclonedds", "zeromq"};
+const std::set<std::string> kCategories = {
+    "c",      "c++",    "system",   "boost",      "yaml-cpp", "sqlite",    "catch2", "eigen",
+    "opencv", "simavr", "avr-libc", "cyclonedds", "zeromq",   "libsodium", "openssl"};
 
 // The C standard library's headers (C99 and C11).
 const std::set<std::string> kCHeaders = {
@@ -181,6 +181,8 @@ std::string categoryOf(const Include& include) {
   if (startsWith(name, "avr/")) return "avr-libc";
   if (startsWith(name, "dds/")) return "cyclonedds";  // benchmark peers only
   if (name == "zmq.h") return "zeromq";
+  if (name == "sodium.h" || startsWith(name, "sodium/")) return "libsodium";
+  if (startsWith(name, "openssl/")) return "openssl";
   if (startsWith(name, "sim_") || startsWith(name, "avr_") || startsWith(name, "simavr/"))
     return "simavr";
   return "system";  // POSIX and the rest of the operating system

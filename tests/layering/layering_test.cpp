@@ -105,6 +105,8 @@ TEST_CASE("outside headers fall into their library's category", "[unit]") {
   CHECK(categoryOf({"sim_avr.h", true}) == "simavr");
   CHECK(categoryOf({"dds/dds.h", true}) == "cyclonedds");
   CHECK(categoryOf({"zmq.h", true}) == "zeromq");
+  CHECK(categoryOf({"sodium.h", true}) == "libsodium");
+  CHECK(categoryOf({"openssl/evp.h", true}) == "openssl");
 }
 
 TEST_CASE("a folder may use its own files, the folders of its row and its categories", "[unit]") {

@@ -79,6 +79,22 @@ failed: ["a/c/f{?v=1}"]
              Contains("unknown PEIS 'x'"));
   CHECK_THAT(failure([] { Model::fromYaml("peis:\n  - {name: a, id: -4}\n", "m.yaml"); }),
              StartsWith("m.yaml:2:") && Contains("id"));
+  // Missing keys are named with the line of the mapping that lacks them.
+  CHECK_THAT(failure([] { Model::fromYaml("peis:\n  - {name: a}\n  - {id: 4}\n", "m.yaml"); }),
+             StartsWith("m.yaml:3:") && Contains("PEIS name is missing"));
+  CHECK_THAT(failure([] {
+               Model::fromYaml("peis:\n  - name: a\n    components:\n      - functionalities: []\n",
+                               "m.yaml");
+             }),
+             StartsWith("m.yaml:4:") && Contains("component is missing"));
+  CHECK_THAT(failure([] {
+               Model::fromYaml(
+                   "peis: [{name: a}]\nlink-overrides:\n  - {producer: a, consumer: a}\n",
+                   "m.yaml");
+             }),
+             StartsWith("m.yaml:3:") && Contains("cost is missing"));
+  CHECK_THAT(failure([] { Model::fromYaml("facts:\n  - {publisher: a}\n", "m.yaml"); }),
+             StartsWith("m.yaml:2:") && Contains("fact is missing"));
   CHECK_THAT(failure([] { Model::fromFile("/nonexistent/model.yaml"); }),
              Contains("cannot open the model file"));
 }
@@ -121,6 +137,12 @@ prefer: [vac/cleaner/odometry]
   CHECK_THAT(failure([] { Goals::fromYaml("wishes: []\n", "g.yaml"); }),
              StartsWith("g.yaml:1:") && Contains("unknown key 'wishes'"));
   CHECK_THAT(failure([] { Goals::fromYaml("goals: [\n", "g.yaml"); }), Contains("not valid YAML"));
+  CHECK_THAT(
+      failure([] { Goals::fromYaml("goals:\n  - x\n  - {consumer: vac.mi-x}\n", "g.yaml"); }),
+      StartsWith("g.yaml:3:") && Contains("information is missing"));
+  // A goal list without `goals:` is named, with the keys a goal file has.
+  CHECK_THAT(failure([] { Goals::fromYaml("- position(vac)@vac.mi-position\n", "g.yaml"); }),
+             StartsWith("g.yaml:1:") && Contains("must be a mapping") && Contains("goals"));
   CHECK_THAT(failure([] {
                Goals::fromArguments({"ok", "run:vac"});
              }),
@@ -186,12 +208,40 @@ goal: [lifted, "at(r, c)"]
                    "d.yaml");
              }),
              Contains("?z"));
+  // on-failure: what a failure tells; its mistakes named.
+  const auto withFailure = task::Domain::fromYaml(
+      "domain: d\nactions:\n  - name: X\n    parameters: {r: robot}\n    effects: [p]\n"
+      "    on-failure:\n      - {cause: too dark, effects: [\"not lit(?r)\"]}\n",
+      "d.yaml");
+  REQUIRE(withFailure.actions[0].failures.size() == 1);
+  CHECK(withFailure.actions[0].failures[0].cause == "too dark");
+  CHECK(withFailure.actions[0].failures[0].effects[0].toString() == "not lit(?r)");
+  CHECK_THAT(failure([] {
+               task::Domain::fromYaml(
+                   "domain: d\nactions:\n  - name: X\n    effects: [p]\n"
+                   "    on-failure:\n      - {cause: x, effects: [\"q(?z)\"]}\n",
+                   "d.yaml");
+             }),
+             StartsWith("d.yaml:6:") && Contains("?z"));
+  CHECK_THAT(failure([] {
+               task::Domain::fromYaml(
+                   "domain: d\nactions:\n  - name: X\n    effects: [p]\n"
+                   "    on-failure:\n      - {effects: [q]}\n",
+                   "d.yaml");
+             }),
+             StartsWith("d.yaml:6:") && Contains("cause"));
   CHECK_THAT(failure([] {
                task::Problem::fromYaml("problem: p\ndomain: d\ngoal: [\"q(?x)\"]\n", "p.yaml");
              }),
              StartsWith("p.yaml:3:") && Contains("variables"));
   CHECK_THAT(failure([] { task::Problem::fromYaml("problem: p\ndomain: d\n", "p.yaml"); }),
-             Contains("goal is missing"));
+             StartsWith("p.yaml:1:") && Contains("goal is missing"));
+  CHECK_THAT(failure([] { task::Problem::fromYaml("domain: d\ngoal: [p]\n", "p.yaml"); }),
+             StartsWith("p.yaml:1:") && Contains("problem is missing"));
+  CHECK_THAT(failure([] {
+               task::Domain::fromYaml("domain: d\nactions:\n  - {effects: [p]}\n", "d.yaml");
+             }),
+             StartsWith("d.yaml:3:") && Contains("action name is missing"));
   CHECK_THAT(failure([&] {
                auto other = p;
                other.domain.assign(1, 'e');  // (= "e" trips a GCC 12 -Wrestrict false positive)

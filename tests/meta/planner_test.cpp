@@ -173,7 +173,12 @@ TEST_CASE("goals naming unknown things are errors that name the goal", "[unit][p
                     Contains("unknown PEIS 'nobody'"));
   CHECK_THROWS_WITH(planner.plan(goalsOf({"run:vac/cleaner/fly"})),
                     Contains("no such functionality"));
-  CHECK_THROWS_WITH(planner.plan(goalsOf({"position(vac)", "avoid:mars"})), Contains("'mars'"));
+  CHECK_THROWS_WITH(planner.plan(goalsOf({"position(vac)", "avoid:mars"})),
+                    Contains("'mars'") && Contains("argument 2"));
+  // An avoided PEIS nobody knows is named with the file and line it came from.
+  CHECK_THROWS_WITH(planner.plan(Goals::fromYaml(
+                        "goals: [\"position(vac)\"]\navoid:\n  - cam1\n  - mars\n", "goals.yaml")),
+                    Contains("unknown PEIS 'mars'") && Contains("goals.yaml:4"));
   const auto goals = Goals::fromYaml(
       "goals:\n  - position(vac)\n  - weather(today)@vac.mi-weather\n", "goals.yaml");
   CHECK_THROWS_WITH(planner.plan(goals), Contains("goals.yaml:3") && Contains("weather"));

@@ -150,6 +150,16 @@ TEST_CASE("introspection follows components and links and status and a saved mod
              Contains("cost 4.000 (optimal)") && Contains("c1.mi-position <- pb.position"));
   // Planned on the live ecology, without a file.
   CHECK_THAT(eco.config({"plan", "position@c1.mi-position"}).out, Contains("<- pb.position"));
+  // ... with a goal file: its constraints count too (pb avoided: nothing left).
+  const auto goalFile = (dir.path / "goals.yaml").string();
+  {
+    std::ofstream out(goalFile);
+    out << "goals: [position@c1.mi-position]\navoid: [pb]\n";
+  }
+  const auto avoided = eco.config({"plan", "--goals", goalFile});
+  INFO(peis::test::describe(avoided));
+  CHECK(avoided.status == 1);
+  CHECK_THAT(avoided.out, Contains("no configuration") && Contains("avoided"));
 }
 
 TEST_CASE("the configurator publishes the live model and peis config model prints it",
@@ -546,6 +556,10 @@ TEST_CASE(
       },
       30s);
   const auto healthy = eco.seqno(stat, "mi-temperature");
+  // A person following the events sees the repair as it happens: the
+  // follower has printed the first deployment before the producer dies.
+  auto& follower = eco.start(PEIS_CONFIG_PATH, {"events", "--follow", "--timeout", "120"});
+  REQUIRE_WAIT([&] { return follower.out().find("deployed") != std::string::npos; }, 30s);
   pa.kill(SIGKILL);
   REQUIRE_WAIT(
       [&] {
@@ -554,6 +568,16 @@ TEST_CASE(
       },
       30s);
   CHECK(eco.seqno(stat, "mi-temperature") == healthy);
+  REQUIRE_WAIT(
+      [&] {
+        return follower.out().find("failure      pa/locator/locate: PEIS pa is gone") !=
+               std::string::npos;
+      },
+      30s);
+  follower.kill(SIGINT);
+  const auto followed = follower.wait(30s);
+  INFO(follower.describe());
+  CHECK(followed == std::optional<int>(0));
   const auto text = eventsText(eco);
   CHECK_THAT(text, Contains("failure pa/locator/locate: PEIS pa is gone") &&
                        Contains("replanned repair") && Contains("deployed generation"));
@@ -561,6 +585,163 @@ TEST_CASE(
   const auto printed = eco.config({"events"});
   CHECK(printed.status == 0);
   CHECK_THAT(printed.out, Contains("failure      pa/locator/locate: PEIS pa is gone"));
+}
+
+TEST_CASE("a producer in error, or whose precondition no longer holds, is replaced", "[fault]") {
+  const bool error = GENERATE(true, false);
+  MetaEcology eco(error ? "meta-error" : "meta-fact");
+  // In error a while after it starts; or its fact `sees-c1` is taken back.
+  auto extra = error ? std::vector<std::string>{"--error-after-ms", "1500"}
+                     : std::vector<std::string>{"--fact", "sees-c1"};
+  eco.synthetic("pa", error ? "position-cheap.yaml" : "position-seen.yaml", extra);
+  eco.synthetic("pb", "position-dear.yaml");
+  eco.synthetic("c1", "consumer.yaml");
+  eco.configurator({"--peis-name", "cfg"});
+  const PeisId a = eco.await("pa"), b = eco.await("pb"), c1 = eco.await("c1");
+  const PeisId cfg = eco.await("cfg");
+  for (auto id : {a, c1, cfg}) eco.follow(id, "**");
+  peis::test::StateReport report([&] { return eventsText(eco) + eco.describeAll(); });
+  REQUIRE_WAIT([&] { return eco.value(cfg, "config.configurator") == "active"; }, 30s);
+  if (!error) {
+    REQUIRE_WAIT([&] { return eco.value(a, "fact.sees-c1") == "true"; }, 30s);
+    REQUIRE(eco.config({"apply", "position@c1.mi-position"}).status == 0);
+    REQUIRE_WAIT([&] { return eco.value(c1, "mi-position") == target(a, "position"); }, 30s);
+    eco.observer->set(a, "fact.sees-c1", "false");
+  } else {
+    REQUIRE(eco.config({"apply", "position@c1.mi-position"}).status == 0);
+  }
+  REQUIRE_WAIT(
+      [&] {
+        return eco.value(c1, "mi-position") == target(b, "position") &&
+               eco.value(c1, "status") == "running";
+      },
+      30s);
+  CHECK_THAT(eventsText(eco), Contains("failure pa/locator/locate: "));
+  if (error) {
+    // Left alone while in error (its record keeps producing.reqState, a later
+    // deployment switches it off): that is no drift to put back, again and again.
+    CHECK_FALSE(waitFor([&] { return anyEvent(eco, "drift"); }, 3000ms));
+  } else {
+    REQUIRE_WAIT([&] { return eco.value(a, "producing.reqState") == "off"; }, 30s);
+  }
+}
+
+TEST_CASE("a goal posted before any producer is known is met when one appears", "[fault]") {
+  MetaEcology eco("meta-early-goal");
+  eco.synthetic("c1", "consumer.yaml");
+  eco.start(peis::test::peisCliPath(), {"node", "--peis-name", "poster", "--peis-set-tuple",
+                                        "config.goal.early=position@c1.mi-position"});
+  eco.configurator({"--peis-name", "cfg"});
+  const PeisId c1 = eco.await("c1"), cfg = eco.await("cfg");
+  for (auto id : {c1, cfg}) eco.follow(id, "**");
+  peis::test::StateReport report([&] { return eventsText(eco) + eco.describeAll(); });
+  // Nobody produces `position` yet: the goal is pending, named.
+  REQUIRE_WAIT(
+      [&] {
+        return eco.value(cfg, "config.goal-status").find("config.goal.early 1 pending") !=
+               std::string::npos;
+      },
+      30s);
+  // A producer appears: the goal is met, though the configuration without
+  // it (nothing, cost 0) was cheaper.
+  eco.synthetic("pa", "position-cheap.yaml");
+  const PeisId a = eco.await("pa");
+  REQUIRE_WAIT(
+      [&] {
+        return eco.value(c1, "mi-position") == target(a, "position") &&
+               eco.value(c1, "status") == "running" &&
+               eco.value(cfg, "config.goal-status").find("config.goal.early 1 deployed") !=
+                   std::string::npos;
+      },
+      30s);
+  CHECK_FALSE(anyEvent(eco, "kept"));
+}
+
+TEST_CASE(
+    "a producer back after the configurator gave up is used at once, not kept off by the margin",
+    "[fault]") {
+  MetaEcology eco("meta-back");
+  auto& pa = eco.synthetic("pa", "position-cheap.yaml");
+  eco.synthetic("c1", "consumer.yaml");
+  eco.configurator({"--peis-name", "cfg"});
+  const PeisId a = eco.await("pa"), c1 = eco.await("c1"), cfg = eco.await("cfg");
+  for (auto id : {c1, cfg}) eco.follow(id, "**");
+  peis::test::StateReport report([&] { return eventsText(eco) + eco.describeAll(); });
+  REQUIRE_WAIT([&] { return eco.value(cfg, "config.configurator") == "active"; }, 30s);
+  REQUIRE(eco.config({"apply", "position@c1.mi-position"}).status == 0);
+  REQUIRE_WAIT(
+      [&] {
+        return eco.value(c1, "mi-position") == target(a, "position") &&
+               eco.value(c1, "status") == "running";
+      },
+      30s);
+  // The only producer dies: nothing can replace it, the configurator gives up.
+  pa.kill(SIGKILL);
+  REQUIRE(pa.wait(30s).has_value());
+  REQUIRE_WAIT([&] { return anyEvent(eco, "gave-up"); }, 30s);
+  // It comes back (a new process, a new id): the broken configuration is
+  // replaced by the one on the new producer as soon as it recovered. The
+  // anti-flap margin is for working configurations, so no `kept` (which
+  // left the consumer waiting until the next retry).
+  eco.synthetic("pa", "position-cheap.yaml");
+  REQUIRE_WAIT(
+      [&] {
+        const auto link = eco.value(c1, "mi-position");
+        return anyEvent(eco, "recovered") && link != target(a, "position") &&
+               link.find(".position") != std::string::npos && eco.value(c1, "status") == "running";
+      },
+      60s);
+  CHECK_FALSE(anyEvent(eco, "kept"));
+}
+
+TEST_CASE("a repaired configuration switches back only to one cheaper by the margin", "[fault]") {
+  MetaEcology eco("meta-margin");
+  auto& pa = eco.synthetic("pa", "position-cheap.yaml");  // 1 + a LAN link 1 = 2
+  eco.synthetic("pb", "position-dear.yaml");              // 3 + 1 = 4
+  eco.synthetic("c1", "consumer.yaml");
+  eco.configurator({"--peis-name", "cfg"});
+  const PeisId a = eco.await("pa"), b = eco.await("pb"), c1 = eco.await("c1");
+  const PeisId cfg = eco.await("cfg");
+  for (auto id : {c1, cfg}) eco.follow(id, "**");
+  peis::test::StateReport report([&] { return eventsText(eco) + eco.describeAll(); });
+  REQUIRE_WAIT([&] { return eco.value(cfg, "config.configurator") == "active"; }, 30s);
+  REQUIRE(eco.config({"apply", "position@c1.mi-position"}).status == 0);
+  REQUIRE_WAIT([&] { return eco.value(c1, "mi-position") == target(a, "position"); }, 30s);
+  pa.kill(SIGKILL);
+  REQUIRE(pa.wait(30s).has_value());
+  REQUIRE_WAIT([&] { return eco.value(c1, "mi-position") == target(b, "position"); }, 30s);
+  // pa is back: 2 against the deployed 4 is 50 % cheaper, past the 20 %
+  // margin: switched back once it looked healthy for the recover hold.
+  eco.synthetic("pa", "position-cheap.yaml");
+  REQUIRE_WAIT(
+      [&] {
+        const auto link = eco.value(c1, "mi-position");
+        return anyEvent(eco, "recovered") && link != target(b, "position") &&
+               link != target(a, "position") && link.find(".position") != std::string::npos &&
+               eco.value(c1, "status") == "running";
+      },
+      60s);
+  const auto back = eco.value(c1, "mi-position");
+  const auto link = eco.seqno(c1, "mi-position");
+  // pn would cost 1.9 against 2: 5 % cheaper, not worth a switch.
+  eco.synthetic("pn", "position-near.yaml");
+  eco.await("pn");
+  REQUIRE_WAIT([&] { return anyEvent(eco, "kept"); }, 30s);
+  CHECK_THAT(eventsText(eco), Contains("kept cost 1.900 is not 20 % below the deployed 2.000"));
+  CHECK(eco.value(c1, "mi-position") == back);
+  CHECK(eco.seqno(c1, "mi-position") == link);
+  // Withdrawn: the link is taken away and the producer switched off.
+  const PeisId again = static_cast<PeisId>(std::stol(back.substr(0, back.find('.'))));
+  eco.follow(again, "producing.reqState");
+  const auto withdrawn = eco.config({"withdraw"});
+  INFO(peis::test::describe(withdrawn));
+  CHECK(withdrawn.status == 0);
+  REQUIRE_WAIT(
+      [&] {
+        return eco.value(c1, "mi-position").empty() &&
+               eco.value(again, "producing.reqState") == "off";
+      },
+      30s);
 }
 
 TEST_CASE("a component frozen for less than the liveness period makes no false repair", "[fault]") {
@@ -652,4 +833,44 @@ TEST_CASE("goal tuples: bad lines refused and unknown types pending - both named
       },
       30s);
   CHECK(eco.seqno(c1, "mi-position") == link);
+}
+
+// The configurator's introspection lost PEIS under heavy load: one that
+// became unreachable for a moment (links timed out) and came back with the
+// same life kept its tuples in the kernel, so the full sync of the fresh
+// subscription brought the same seqnos, no change and no callback; its key
+// list and descriptor were never seen again, its actuators never followed
+// again, and the configurator waited for a complete model in vain.
+TEST_CASE("introspection follows a PEIS again after it was unreachable for a while",
+          "[integration]") {
+  MetaEcology eco("meta-introspect-flap");
+  auto& pa = eco.synthetic("pa", "position-cheap.yaml");
+  const PeisId a = eco.await("pa");
+  peis::meta::Introspector introspector(*eco.observer);
+  auto pa_ = [&] {
+    auto live = introspector.snapshot();
+    const auto* p = live.findByName("pa");
+    return p ? std::optional<peis::meta::LivePeis>(*p) : std::nullopt;
+  };
+  peis::test::StateReport report([&] {
+    return introspector.snapshot().toText() +
+           "\ncomplete: " + std::to_string(introspector.complete()) + "\n" + eco.describeAll();
+  });
+  REQUIRE_WAIT(
+      [&] {
+        const auto p = pa_();
+        return p && p->alive && p->descriptor && p->actuators.count("producing") &&
+               introspector.complete();
+      },
+      30s);
+  // Frozen past the liveness period: gone for the observer, then back.
+  pa.kill(SIGSTOP);
+  REQUIRE_WAIT([&] { return pa_() && !pa_()->alive; }, 30s);
+  pa.kill(SIGCONT);
+  REQUIRE_WAIT([&] { return pa_() && pa_()->alive; }, 30s);
+  // Its tuples did not change meanwhile: introspection knows them all again
+  // and follows its actuator again.
+  REQUIRE_WAIT([&] { return introspector.complete(); }, 30s);
+  eco.observer->set(a, "producing.reqState", "on");
+  REQUIRE_WAIT([&] { return pa_() && pa_()->actuators["producing"].currState == "on"; }, 30s);
 }

@@ -72,6 +72,68 @@ PlanResult planHome(const LiveModel& live, std::vector<InstanceSelector> failed 
 
 }  // namespace
 
+TEST_CASE("a launcher's components that do not run are in the planner's model, with id 0",
+          "[unit][meta-runtime]") {
+  auto live = home();
+  // vac does not run; a launcher declares it, and a dear camera it does not start.
+  live.peis.erase(live.peis.begin() + 2);
+  auto launcher = livePeis(7, "launcher");
+  LaunchEntry vac;
+  vac.peisName = "vac";
+  vac.descriptor = descriptor(kRobot);
+  vac.reqState = vac.currState = "off";
+  vac.status = "ok";
+  launcher.launches["robot"] = vac;
+  LaunchEntry broken = vac;
+  broken.peisName = "cam2";
+  broken.descriptor = descriptor(kCamera);
+  broken.currState = "failed";
+  broken.status = "error: executable 'x' not found (cam2.yaml:2)";
+  launcher.launches["camera2"] = broken;
+  LaunchEntry cam = broken;  // cam runs already: the launcher's entry adds nothing
+  cam.peisName = "cam";
+  cam.currState = "off";
+  launcher.launches["camera"] = cam;
+  live.peis.push_back(launcher);
+  auto earlier = livePeis(9, "vac");  // an earlier run of vac: replaced
+  earlier.alive = false;
+  live.peis.push_back(earlier);
+
+  REQUIRE(live.launchable("vac"));
+  CHECK(live.launchable("vac")->launcher->id == 7);
+  CHECK(live.launchable("vac")->component == "robot");
+  CHECK_FALSE(live.launchable("cam2"));  // failed
+  CHECK_FALSE(live.launchable("nobody"));
+  const auto model = live.toModel();
+  const auto* p = model.findPeis("vac");
+  REQUIRE(p);
+  CHECK(p->id == 0);
+  CHECK(p->alive);
+  REQUIRE(p->components.size() == 1);
+  CHECK(p->components[0].component == "robot");
+  CHECK(model.findPeis("cam2") == nullptr);
+  CHECK(model.findPeis("cam")->id == 1);
+  const auto result = planHome(live);
+  REQUIRE(result.ok());
+  bool usesVac = false;
+  for (const auto& l : result.configuration.links)
+    usesVac |= l.consumerPeis == "vac" && l.consumerId == 0;
+  CHECK(usesVac);
+
+  // A gone launcher offers nothing.
+  live.peis[live.peis.size() - 2].alive = false;
+  CHECK_FALSE(live.launchable("vac"));
+  CHECK(live.toModel().findPeis("vac")->id == 9);
+  CHECK_FALSE(live.toModel().findPeis("vac")->alive);
+  live.peis[live.peis.size() - 2].alive = true;
+
+  // The launches go through model.live's YAML and show in the text.
+  CHECK(LiveModel::fromYaml(live.toYaml()) == live);
+  CHECK_THAT(live.toText(), Contains("launches robot as 'vac': off") &&
+                                Contains("launches camera2 as 'cam2': failed, error: executable"));
+  CHECK_THAT(live.toJson(), Contains("\"launches\":{\"camera\":{\"peisName\":\"cam\""));
+}
+
 TEST_CASE("the live model becomes the planner's model", "[unit][meta-runtime]") {
   auto live = home();
   auto gone = livePeis(9, "vac");  // vac's earlier life under another id
@@ -237,6 +299,7 @@ TEST_CASE("goal tuples: one goal per line and bad lines named by tuple and line"
   CHECK(parsed.goals.information[0].consumerPeis == "Pippi");
   CHECK(parsed.goals.run.at(0).origin == "Emil.config.goal.planner:4");
   CHECK(parsed.goals.constraints.avoidPeis == std::vector<std::string>{"cam2"});
+  CHECK(parsed.goals.constraints.avoidPeisOrigin.at("cam2") == "Emil.config.goal.planner:5");
   REQUIRE(parsed.problems.size() == 1);
   CHECK_THAT(parsed.problems[0], Contains("Emil.config.goal.planner:6: "));
   CHECK(parseGoalTuple("", "x").goals.empty());

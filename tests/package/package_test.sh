@@ -114,6 +114,15 @@ for program in "$lamp" "$work/lamp-pkgconfig"; do
   grep -q -- '--peis-id' <<<"$help" || fail "$program --help does not list --peis-id"
 done
 
+step "every installed program answers --help once and refuses an unknown option"
+for program in "$prefix"/bin/*; do
+  help=$("$program" --help 2>&1) || fail "$program --help exited $?"
+  [ "$(grep -c '^PEIS options:' <<<"$help")" -le 1 ] || fail "$program --help lists its PEIS options twice"
+  status=0
+  "$program" --no-such-option >/dev/null 2>&1 </dev/null || status=$?
+  [ "$status" -eq 2 ] || fail "$program --no-such-option exited $status, not 2"
+done
+
 step "the lamp in an ecology, driven by the installed peis tool"
 peis=$prefix/bin/peis
 ecology=package-$$-$RANDOM

@@ -1,17 +1,17 @@
-// The three reference scenarios (scenarios/*.yaml) as far as the components
-// carry them today: each runs without the meta-level's configurator
-// (--without configurator; peis-configurator is built, but the reference
-// components' descriptors do not yet type their ports as the executor's
-// needs name them) up to its first step that needs a configuration, and
-// these tests check exactly what holds by then and what is the first
-// condition that does not (see docs/scenarios.md, "What each scenario needs
-// from the meta-level").
+// The three reference scenarios (scenarios/*.yaml) end to end, with the
+// meta-level's configurator: each at the fastest --speed at which it stays
+// correct (docs/scenarios.md says how that was found), and each again with
+// a fault injected that it must survive. Nothing is deployed by the test:
+// the configurator plans and deploys every configuration, the executors'
+// task planner plans every step.
 #include <peis/kernel.h>
 
 #include <catch2/catch.hpp>
+#include <filesystem>
 #include <regex>
 
 #include "support/process.h"
+#include "support/temp_dir.h"
 #include "support/wait_for.h"
 
 using Catch::Matchers::Contains;
@@ -43,6 +43,11 @@ bool held(const std::string& out, const std::string& condition) {
   return out.find("  held      " + condition + " (") != std::string::npos;
 }
 
+// The speeds the tests run at (docs/scenarios.md, "Tests").
+constexpr const char* kPhotoSpeed = "16";
+constexpr const char* kWakeSpeed = "16";
+constexpr const char* kVacuumSpeed = "16";
+
 }  // namespace
 
 TEST_CASE("reference scenarios: the three files are valid and name the configurator",
@@ -60,95 +65,119 @@ TEST_CASE("reference scenarios: the three files are valid and name the configura
   }
 }
 
-TEST_CASE("reference scenarios: photo-sofa runs up to the photo that needs the meta-level",
-          "[integration][scenario]") {
-  const Run r = run({"run", scenario("photo-sofa"), "--without", "configurator", "--speed", "4",
-                     "--until", "40", "--trace", "", "--picture", ""},
-                    240s);
+void checkPhotoSofa(const Run& r) {
   INFO(r.out << r.err);
-  CHECK(r.status == 1);
-  // The tiny part of section V: <3, 43, 0> from the plant closes the blind
-  // (on the emulated ATmega128 when simavr is built).
+  REQUIRE(r.status == 0);
+  // The tiny part of section V: <3, 43, 0> from the plant closes the blind.
   CHECK_THAT(r.out, Contains("too much sun on the plant: it sends <3, 43, 0> to the blind"));
-  CHECK(held(r.out, "the plant asks the blind to close"));
-  CHECK(held(r.out, "the blind closes"));
-  // Astrid's task is planned and its first need posted for the configurator.
+  // GoTo's position: deployed by the configurator, not by anyone's hand.
+  CHECK_THAT(r.out, Contains("astrid           configuration: mi-position now reads "
+                             "tracker.position.Astrid"));
+  // The dark photo is replanned by the task planner: the lamp lights the sofa.
   CHECK_THAT(r.out, Contains("Astrid's plan: GoTo(astrid, sofa); TakePhoto(astrid, sofa)"));
-  CHECK_THAT(r.out,
-             Contains("Astrid asks the configurator for: position(astrid)@astrid.mi-position"));
-  CHECK_THAT(r.out,
-             Contains("FAILED: condition 'a photo is too dark' did not hold by 40.0 s (--until)"));
-}
-
-TEST_CASE("reference scenarios: wake-up runs up to GoTo's configuration",
-          "[integration][scenario]") {
-  const Run r = run({"run", scenario("wake-up"), "--without", "configurator", "--speed", "4",
-                     "--until", "20", "--trace", "", "--picture", ""},
-                    240s);
-  INFO(r.out << r.err);
-  CHECK(r.status == 1);
-  CHECK(held(r.out, "Emil plans GoTo(bed), Talk(wakeup), GoTo(sofa)"));
-  CHECK_THAT(r.out, Contains("Emil asks the configurator for: position(pippi)@pippi.mi-position"));
-  CHECK_THAT(r.out, Contains("FAILED: condition 'GoTo's position comes from the tracker' did not "
-                             "hold by 20.0 s (--until)"));
-}
-
-TEST_CASE("reference scenarios: vacuum-parcel runs up to the cleaner's configuration",
-          "[integration][scenario]") {
-  const Run r = run({"run", scenario("vacuum-parcel"), "--without", "configurator", "--speed", "4",
-                     "--until", "20", "--trace", "", "--picture", ""},
-                    240s);
-  INFO(r.out << r.err);
-  CHECK(r.status == 1);
-  CHECK_THAT(r.out, Contains("the home's plan: Clean(vacuum, living-room)"));
-  CHECK_THAT(r.out,
-             Contains("the home asks the configurator for: position(vacuum)@vacuum.mi-position "
-                      "weight(parcel)@vacuum.mi-weight"));
-  // The parcel's tiny node tells its weight through the bridge.
-  CHECK_THAT(r.out, Contains("the parcel's node: it weighs 2500 g"));
-  CHECK_THAT(r.out,
-             Contains("FAILED: condition 'the cleaner's position comes from the tracker' did "
-                      "not hold by 20.0 s (--until)"));
-}
-
-// What the configurator must deploy for wake-up, done here by the test: the
-// tracker's inputs and Pippi's mi-position. Everything else — Emil's plan,
-// the delegation through ExecGoal, navigation on fixes and odometry, the
-// talk, Johanna waking, completion — is the components'. A fault it must
-// survive: the living room's camera stopped for a while (Pippi carries on
-// with the bedroom camera's fixes and odometry).
-TEST_CASE("reference scenarios: wake-up passes once its configuration is deployed (by hand here)",
-          "[integration][scenario]") {
-  const std::string ecology = "wake-by-hand-" + std::to_string(::getpid());
-  Process runner({PEIS_SCENARIO_PATH, "run", scenario("wake-up"), "--without", "configurator",
-                  "--speed", "4", "--ecology", ecology, "--trace", "", "--picture", "", "--inject",
-                  "stop camera-living-2 at 4 for 6"});
-  peis::Options options;
-  options.ecology = ecology;
-  options.name = "by-hand";
-  peis::Kernel hand(options);
-  std::optional<peis::PeisId> emil;
-  REQUIRE(waitFor([&] { return (emil = hand.waitForPeer("emil", 0ms)).has_value(); }, 60s));
-  hand.subscribe(peis::Pattern("config.goal.emil", *emil));
-  REQUIRE(waitFor(
-      [&] {
-        const auto goal = hand.get(*emil, "config.goal.emil");
-        return goal && goal->data.find("position(pippi)@pippi.mi-position") != std::string::npos;
-      },
-      60s));
-  const auto id = [&](const char* name) { return *hand.waitForPeer(name, 10s); };
-  hand.setMeta(id("tracker"), "mi-camera1", id("camera-living-2"), "image");
-  hand.setMeta(id("tracker"), "mi-camera2", id("camera-bedroom"), "image");
-  hand.setMeta(id("pippi"), "mi-position", id("tracker"), "position.Pippi");
-  const auto status = runner.wait(300s);
-  INFO(runner.describe());
-  REQUIRE(status == std::optional<int>(0));
-  const std::string out = runner.out();
-  CHECK_THAT(out, Contains("FAULT: stopped with SIGSTOP for 6.0 s"));
-  CHECK_THAT(out, Contains("resumed with SIGCONT"));
+  CHECK_THAT(r.out, Contains("Astrid's plan: TurnOn(lamp); TakePhoto(astrid, sofa)"));
+  CHECK_THAT(r.out, Contains("Astrid asks the configurator for: lamp-level(lamp)"));
   for (const char* condition :
-       {"GoTo's position comes from the tracker", "Pippi reaches the bed within 15 cm",
-        "out of the cameras' view, Pippi carries on with odometry", "Johanna wakes up",
-        "Pippi reaches the sofa within 15 cm", "Pippi reports completion to Emil"})
-    CHECK(held(out, condition));
+       {"the plant asks the blind to close", "the blind closes", "a photo is too dark",
+        "Astrid sets <6890, LightValue, 100>", "the lamp turns on", "the photo is bright enough",
+        "the task completes"})
+    CHECK(held(r.out, condition));
+}
+
+TEST_CASE("reference scenarios: photo-sofa (the dark photo, the lamp through the bridge)",
+          "[integration][scenario]") {
+  peis::test::TempDir dir;
+  const auto trace = dir.path / "photo-sofa.trace.sqlite";
+  const auto picture = dir.path / "photo-sofa.png";
+  const Run r = run({"run", scenario("photo-sofa"), "--speed", kPhotoSpeed, "--trace",
+                     trace.string(), "--picture", picture.string()},
+                    280s);
+  checkPhotoSofa(r);
+  CHECK(std::filesystem::file_size(trace) > 0);
+  CHECK(std::filesystem::file_size(picture) > 0);
+}
+
+TEST_CASE("reference scenarios: photo-sofa survives the lamp's radio link cut for a while",
+          "[fault][scenario]") {
+  const Run r = run({"run", scenario("photo-sofa"), "--speed", kPhotoSpeed, "--trace", "",
+                     "--picture", "", "--inject", "cut lamp at 5 for 6"},
+                    280s);
+  CHECK_THAT(r.out, Contains("FAULT: radio link cut for 6.0 s"));
+  CHECK_THAT(r.out, Contains("radio link restored"));
+  checkPhotoSofa(r);
+}
+
+void checkWakeUp(const Run& r) {
+  INFO(r.out << r.err);
+  REQUIRE(r.status == 0);
+  CHECK_THAT(r.out, Contains("pippi            configuration: mi-position now reads "
+                             "tracker.position.Pippi"));
+  // The bedroom's camera is killed (the file's fault): the configurator
+  // re-deploys the tracker on the other camera alone, within a second or so.
+  CHECK_THAT(r.out, Contains("camera-bedroom   FAULT: kill -9"));
+  CHECK(std::regex_search(r.out, std::regex("tracker +configuration: mi-camera2 now reads nothing "
+                                            "\\([0-9.]+ s after kill camera-bedroom at 6\\)")));
+  for (const char* condition :
+       {"Emil plans GoTo(bed), Talk(wakeup), GoTo(sofa)", "GoTo's position comes from the tracker",
+        "Pippi localizes from the tracker's fixes",
+        "the tracker is re-deployed on the living room's camera alone",
+        "out of the cameras' view, Pippi carries on with odometry",
+        "back in view, Pippi localizes from fixes again", "Pippi reaches the bed within 15 cm",
+        "Johanna wakes up", "Pippi reaches the sofa within 15 cm",
+        "Pippi reports completion to Emil"})
+    CHECK(held(r.out, condition));
+}
+
+TEST_CASE("reference scenarios: wake-up (GoTo's tracker deployed, repaired on one camera)",
+          "[integration][scenario]") {
+  checkWakeUp(run(
+      {"run", scenario("wake-up"), "--speed", kWakeSpeed, "--trace", "", "--picture", ""}, 280s));
+}
+
+TEST_CASE("reference scenarios: wake-up survives the living room's camera frozen for a while",
+          "[fault][scenario]") {
+  const Run r = run({"run", scenario("wake-up"), "--speed", kWakeSpeed, "--trace", "", "--picture",
+                     "", "--inject", "stop camera-living-2 at 24 for 8"},
+                    280s);
+  CHECK_THAT(r.out, Contains("FAULT: stopped with SIGSTOP for 8.0 s"));
+  CHECK_THAT(r.out, Contains("resumed with SIGCONT"));
+  checkWakeUp(r);
+}
+
+void checkVacuumParcel(const Run& r) {
+  INFO(r.out << r.err);
+  REQUIRE(r.status == 0);
+  CHECK_THAT(r.out, Contains("the home's plan: Clean(vacuum, living-room)"));
+  CHECK_THAT(r.out, Contains("the parcel's node: it weighs 2500 g"));
+  CHECK_THAT(r.out, Contains("vacuum           configuration: mi-position now reads "
+                             "tracker.position.vacuum"));
+  CHECK_THAT(r.out, Contains("vacuum           configuration: mi-weight now reads parcel.Weight"));
+  // The repair: the spare tracker, with the time it took since the kill.
+  CHECK(std::regex_search(r.out, std::regex("vacuum +configuration: mi-position now reads "
+                                            "tracker-2\\.position\\.vacuum \\([0-9.]+ s after "
+                                            "kill tracker at 60\\)")));
+  for (const char* condition :
+       {"the cleaner's position comes from the tracker", "the parcel's weight reaches the cleaner",
+        "the cleaner cleans with fresh positions", "a new configuration after the tracker died",
+        "the spare tracker delivers the cleaner's position",
+        "the cleaner cleans with fresh positions again",
+        "the cleaner covers its room (at least 20 of its 38 lane ends)",
+        "the cleaner finishes its room", "the home's task completes"})
+    CHECK(held(r.out, condition));
+}
+
+TEST_CASE("reference scenarios: vacuum-parcel (the weight, the tracker killed and replaced)",
+          "[integration][scenario]") {
+  checkVacuumParcel(run(
+      {"run", scenario("vacuum-parcel"), "--speed", kVacuumSpeed, "--trace", "", "--picture", ""},
+      280s));
+}
+
+TEST_CASE("reference scenarios: vacuum-parcel survives a camera frozen for a while",
+          "[fault][scenario]") {
+  const Run r = run({"run", scenario("vacuum-parcel"), "--speed", kVacuumSpeed, "--trace", "",
+                     "--picture", "", "--inject", "stop camera-living-1 at 30 for 8"},
+                    280s);
+  CHECK_THAT(r.out, Contains("FAULT: stopped with SIGSTOP for 8.0 s"));
+  checkVacuumParcel(r);
 }

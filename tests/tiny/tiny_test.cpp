@@ -18,6 +18,7 @@
 extern "C" {
 #include "tiny_app.h"
 #include "tiny_kernel.h"
+#include "tiny_mac.h"
 #include "tiny_serial.h"
 #include "tiny_tuple.h"
 }
@@ -69,7 +70,9 @@ struct Node {
   Bus* bus = nullptr;
   std::deque<Bytes> inbox;
   std::unique_ptr<tiny_kernel> k = std::make_unique<tiny_kernel>();
-  bool asleep = false;  // neither polls nor hears
+  bool asleep = false;         // neither polls nor hears
+  uint32_t storedCounter = 0;  // its non-volatile memory (a secured radio)
+  int counterWrites = 0;
 };
 
 struct Bus {
@@ -96,14 +99,31 @@ struct Bus {
     return static_cast<int>(f.size());
   }
   static uint32_t clock(void* ctx) { return static_cast<Node*>(ctx)->bus->now; }
+  static int load(void* ctx, uint32_t* value) {
+    *value = static_cast<Node*>(ctx)->storedCounter;
+    return 0;
+  }
+  static int store(void* ctx, uint32_t value) {
+    auto* self = static_cast<Node*>(ctx);
+    self->storedCounter = value;
+    ++self->counterWrites;
+    return 0;
+  }
 
   tiny_kernel* add(uint16_t id) {
     auto n = std::make_unique<Node>();
     n->bus = this;
-    tiny_hal hal{n.get(), &Bus::send, &Bus::recv, &Bus::clock};
+    tiny_hal hal{n.get(), &Bus::send, &Bus::recv, &Bus::clock, &Bus::load, &Bus::store, nullptr};
     tiny_init(n->k.get(), id, &hal);
     nodes.push_back(std::move(n));
     return nodes.back()->k.get();
+  }
+  // The node restarts: its RAM is gone, its non-volatile memory kept.
+  void restart(tiny_kernel* k) {
+    auto& n = node(k);
+    const uint16_t id = k->id;
+    tiny_hal hal{&n, &Bus::send, &Bus::recv, &Bus::clock, &Bus::load, &Bus::store, nullptr};
+    tiny_init(k, id, &hal);
   }
   Node& node(tiny_kernel* k) {
     for (auto& n : nodes)
@@ -294,7 +314,7 @@ TEST_CASE("tiny: every class of malformed frame is dropped and counted", "[unit]
     b[0] = 99;
     CHECK(decode(b) == TINY_DECODE_UNKNOWN_TYPE);
     b = good;
-    b[1] = 2;
+    b[1] = 3;  // 1 is open, 2 secured (its trailer checked before decoding)
     CHECK(decode(b) == TINY_DECODE_BAD_VERSION);
     CHECK(s.drop_unknown_type == 2);
     CHECK(s.drop_bad_version == 1);
@@ -894,4 +914,179 @@ TEST_CASE("tiny: the UART helpers frame what they send and decode a ring that wr
   CHECK(tiny_serial_ring_recv(&ring, &rx, out, 2) == sizeof frame);
   CHECK(out[0] == 1);
   CHECK(out[1] == 2);
+}
+
+// ---- a secured radio (docs/security.md) ---------------------------------------
+
+namespace {
+
+const uint8_t kKeyA[TINY_MAC_KEY_SIZE] = {1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16};
+const uint8_t kKeyB[TINY_MAC_KEY_SIZE] = {21, 22, 23, 24, 25, 26, 27, 28,
+                                          29, 30, 31, 32, 33, 34, 35, 36};
+const uint8_t kKeyBridge[TINY_MAC_KEY_SIZE] = {9, 9, 9, 9, 9, 9, 9, 9, 9, 9, 9, 9, 9, 9, 9, 9};
+
+std::string hexOf(const uint8_t* b, size_t n) {
+  std::string out;
+  char d[3];
+  for (size_t i = 0; i < n; ++i) {
+    std::snprintf(d, sizeof d, "%02x", b[i]);
+    out += d;
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("tiny: SipHash-2-4 gives the reference (and libsodium's) values", "[unit][tiny]") {
+  // Key 00..0f, message 00..len-1; the values computed with libsodium's
+  // crypto_shorthash_siphash24 (the first is the reference's vector 0).
+  const std::pair<size_t, const char*> vectors[] = {
+      {0, "310e0edd47db6f72"},  {1, "fd67dc93c539f874"},  {7, "37d1018bf50002ab"},
+      {8, "6224939a79f5f593"},  {15, "e545be4961ca29a1"}, {16, "db9bc2577fcc2a3f"},
+      {63, "724506eb4c328a95"},
+  };
+  uint8_t key[16], msg[64], out[8];
+  for (int i = 0; i < 16; ++i) key[i] = static_cast<uint8_t>(i);
+  for (int i = 0; i < 64; ++i) msg[i] = static_cast<uint8_t>(i);
+  for (const auto& [len, expected] : vectors) {
+    INFO("length " << len);
+    tiny_siphash24(key, msg, len, out);
+    CHECK(hexOf(out, 8) == expected);
+  }
+}
+
+TEST_CASE(
+    "tiny: secured frames: a bad MAC, an old counter, an unknown or unsecured sender are "
+    "dropped and counted",
+    "[unit][tiny]") {
+  Bus bus;
+  auto* plant = bus.add(3);
+  auto* blind = bus.add(4);
+  auto* stranger = bus.add(9);
+  REQUIRE(tiny_secure(plant, kKeyA) == TINY_OK);
+  REQUIRE(tiny_secure(blind, kKeyB) == TINY_OK);
+  REQUIRE(tiny_secure(stranger, kKeyB) == TINY_OK);
+  REQUIRE(tiny_trust(blind, 3, kKeyA, 0) == TINY_OK);
+  REQUIRE(tiny_trust(plant, 4, kKeyB, 0) == TINY_OK);  // the blind's subscriptions
+  Seen seen;
+  const tiny_key tilt = tiny_key1(43);
+  REQUIRE(tiny_subscribe(blind, 3, &tilt, 0, &Seen::cb, &seen) >= 0);
+  bus.run(100);
+  REQUIRE(tiny_set(plant, &tilt, "0", 1) == TINY_OK);
+  bus.run(100);
+  REQUIRE(!seen.tuples.empty());
+  const auto* got = tiny_get(blind, 3, &tilt);
+  REQUIRE(got != nullptr);
+  CHECK(dataOf(got) == "0");
+
+  // Every frame on the air is secured: version 2, counter and MAC.
+  for (const auto& f : bus.sent) {
+    REQUIRE(f.size() >= TINY_FRAME_HEADER_SIZE + TINY_SECURED_OVERHEAD);
+    CHECK(f[TINY_FOFF_VERSION] == TINY_SECURED_VERSION);
+  }
+  // The plant's last tuple frame, to tamper with and replay.
+  Bytes last;
+  for (const auto& f : bus.sent)
+    if (f[0] == TINY_FRAME_TUPLE && (f[2] | f[3] << 8) == 3) last = f;
+  REQUIRE(!last.empty());
+  const auto s0 = *tiny_get_stats(blind);
+  auto& inbox = bus.node(blind).inbox;
+  Bytes bad = last;
+  bad[TINY_FRAME_HEADER_SIZE + TINY_OFF_STORAGE + 2] ^= 0x01;  // the data
+  inbox.push_back(bad);
+  inbox.push_back(last);  // its counter was taken already
+  Bytes open = last;      // the same frame, unsecured
+  open.resize(open.size() - TINY_SECURED_OVERHEAD);
+  open[TINY_FOFF_VERSION] = TINY_PROTOCOL_VERSION;
+  inbox.push_back(open);
+  bus.run(20);
+  // A sender the blind holds no key of.
+  REQUIRE(tiny_set(stranger, &tilt, "1", 1) == TINY_OK);    // nobody subscribes: no frame
+  tiny_subscribe(stranger, 4, &tilt, 0, nullptr, nullptr);  // its SUBSCRIBE reaches the blind
+  bus.run(50);
+  const auto& s1 = *tiny_get_stats(blind);
+  CHECK(s1.drop_bad_mac == s0.drop_bad_mac + 1);
+  CHECK(s1.drop_replay == s0.drop_replay + 1);
+  CHECK(s1.drop_unsecured == s0.drop_unsecured + 1);
+  CHECK(s1.drop_unknown_sender > s0.drop_unknown_sender);
+  CHECK(dataOf(tiny_get(blind, 3, &tilt)) == "0");
+  // The plant's later values still arrive.
+  REQUIRE(tiny_set(plant, &tilt, "7", 1) == TINY_OK);
+  bus.run(50);
+  CHECK(dataOf(tiny_get(blind, 3, &tilt)) == "7");
+}
+
+TEST_CASE("tiny: on a secured radio only the bridge writes, and a node speaks for its own tuples",
+          "[unit][tiny]") {
+  Bus bus;
+  auto* lamp = bus.add(7);
+  auto* plant = bus.add(3);
+  auto* bridge = bus.add(0xFFFE);
+  for (auto* k : {lamp, plant}) REQUIRE(tiny_secure(k, kKeyA) == TINY_OK);
+  REQUIRE(tiny_secure(bridge, kKeyBridge) == TINY_OK);
+  REQUIRE(tiny_trust(lamp, 3, kKeyA, 0) == TINY_OK);
+  REQUIRE(tiny_trust(lamp, 0xFFFE, kKeyBridge, 1) == TINY_OK);
+  const tiny_key level = tiny_key1(42);
+  tiny_tuple request{};
+  request.owner = 7;
+  request.creator = 3;
+  tiny_tuple_set_key_data(&request, &level, "100", 3);
+  uint8_t buf[TINY_FRAME_MAX];
+  // The plant asks the lamp to write: refused; the bridge asks: applied.
+  size_t n = tiny_encode_write_frame(buf, 3, 1, &request);
+  n = tiny_seal_frame(buf, n, kKeyA, 1000);
+  bus.node(lamp).inbox.emplace_back(buf, buf + n);
+  bus.run(20);
+  CHECK(tiny_get(lamp, 7, &level) == nullptr);
+  CHECK(tiny_get_stats(lamp)->writes_refused == 1);
+  n = tiny_encode_write_frame(buf, 0xFFFE, 1, &request);
+  n = tiny_seal_frame(buf, n, kKeyBridge, 1000);
+  bus.node(lamp).inbox.emplace_back(buf, buf + n);
+  bus.run(20);
+  REQUIRE(tiny_get(lamp, 7, &level) != nullptr);
+  CHECK(dataOf(tiny_get(lamp, 7, &level)) == "100");
+  // The plant sends a tuple "of" node 5: forged.
+  Seen seen;
+  REQUIRE(tiny_subscribe(lamp, TINY_ANY_OWNER, &level, 0, &Seen::cb, &seen) >= 0);
+  tiny_tuple forged{};
+  forged.owner = 5;
+  forged.creator = 5;
+  forged.seqno = 1;
+  tiny_tuple_set_key_data(&forged, &level, "9", 1);
+  n = tiny_encode_tuple_frame(buf, 3, 7, 2, &forged);
+  n = tiny_seal_frame(buf, n, kKeyA, 1001);
+  bus.node(lamp).inbox.emplace_back(buf, buf + n);
+  bus.run(20);
+  CHECK(tiny_get(lamp, 5, &level) == nullptr);
+  CHECK(tiny_get_stats(lamp)->drop_forged_owner == 1);
+  // Secured tuples hold 58 bytes of key and data.
+  const std::string fits(56, 'x'), over(57, 'x');
+  CHECK(tiny_set(plant, &level, fits.data(), static_cast<uint8_t>(fits.size())) == TINY_OK);
+  CHECK(tiny_set(plant, &level, over.data(), static_cast<uint8_t>(over.size())) == TINY_ERR_ARG);
+}
+
+TEST_CASE("tiny: the frame counter survives a restart, so nothing is taken for a replay",
+          "[unit][tiny]") {
+  Bus bus;
+  auto* plant = bus.add(3);
+  auto* blind = bus.add(4);
+  REQUIRE(tiny_secure(plant, kKeyA) == TINY_OK);
+  REQUIRE(tiny_secure(blind, kKeyB) == TINY_OK);
+  REQUIRE(tiny_trust(blind, 3, kKeyA, 0) == TINY_OK);
+  REQUIRE(tiny_trust(plant, 4, kKeyB, 0) == TINY_OK);
+  const tiny_key tilt = tiny_key1(43);
+  REQUIRE(tiny_subscribe(blind, 3, &tilt, 0, nullptr, nullptr) >= 0);
+  bus.run(3000);  // beacons, subscriptions, answers: many frames
+  const uint32_t used = plant->counter;
+  CHECK(bus.node(plant).storedCounter >= used);  // stored ahead of use
+  const int writes = bus.node(plant).counterWrites;
+  CHECK(writes <= 2 + static_cast<int>(used / TINY_COUNTER_BLOCK));
+  bus.restart(plant);
+  REQUIRE(tiny_secure(plant, kKeyA) == TINY_OK);
+  REQUIRE(tiny_trust(plant, 4, kKeyB, 0) == TINY_OK);
+  CHECK(plant->counter >= used);
+  REQUIRE(tiny_set(plant, &tilt, "5", 1) == TINY_OK);
+  bus.run(200);
+  CHECK(dataOf(tiny_get(blind, 3, &tilt)) == "5");
+  CHECK(tiny_get_stats(blind)->drop_replay == 0);
 }

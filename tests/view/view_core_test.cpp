@@ -46,19 +46,20 @@ Filter filter(const std::string& text) { return parseFilter(text, noNames); }
 
 std::vector<Filter> filters(const std::string& text) { return {filter(text)}; }
 
-json::Value parsed(const std::string& text) { return json::parse(text); }
+view::json::Value parsed(const std::string& text) { return view::json::parse(text); }
 
 }  // namespace
 
 TEST_CASE("JSON strings are always valid UTF-8 and escaped", "[unit]") {
-  CHECK(json::quote("a\"b\\c\n\t") == R"("a\"b\\c\n\t")");
-  CHECK(json::quote(std::string("\x01", 1)) == R"("\u0001")");
-  CHECK(json::quote("h\xC3\xA9") == "\"h\xC3\xA9\"");                // é stays
-  CHECK(json::quote("x\xFFy") == "\"x\xEF\xBF\xBDy\"");              // a stray byte: U+FFFD
-  CHECK(json::quote("\xC0\xAF") == "\"\xEF\xBF\xBD\xEF\xBF\xBD\"");  // an overlong '/'
-  CHECK(json::quote("\xED\xA0\x80") == "\"\xEF\xBF\xBD\xEF\xBF\xBD\xEF\xBF\xBD\"");  // a surrogate
-  CHECK(json::isValidUtf8(json::quote(std::string("\x80\x81\xfe\x00 ok", 8))));
-  json::Writer w;
+  CHECK(view::json::quote("a\"b\\c\n\t") == R"("a\"b\\c\n\t")");
+  CHECK(view::json::quote(std::string("\x01", 1)) == R"("\u0001")");
+  CHECK(view::json::quote("h\xC3\xA9") == "\"h\xC3\xA9\"");                // é stays
+  CHECK(view::json::quote("x\xFFy") == "\"x\xEF\xBF\xBDy\"");              // a stray byte: U+FFFD
+  CHECK(view::json::quote("\xC0\xAF") == "\"\xEF\xBF\xBD\xEF\xBF\xBD\"");  // an overlong '/'
+  CHECK(view::json::quote("\xED\xA0\x80") ==
+        "\"\xEF\xBF\xBD\xEF\xBF\xBD\xEF\xBF\xBD\"");  // a surrogate
+  CHECK(view::json::isValidUtf8(view::json::quote(std::string("\x80\x81\xfe\x00 ok", 8))));
+  view::json::Writer w;
   w.beginObject()
       .key("a")
       .integer(-3)
@@ -83,12 +84,12 @@ TEST_CASE("the JSON reader takes valid texts and says where others go wrong", "[
   CHECK(*v.member("ok")->asBool());
   CHECK(v.member("none")->isNull());
   CHECK(v.member("missing") == nullptr);
-  const auto& list = std::get<json::Array>(v.member("list")->v);
+  const auto& list = std::get<view::json::Array>(v.member("list")->v);
   CHECK(*list[1].asString() == "\xC3\xA9\xF0\x9F\x98\x80");
 
   auto fails = [](const std::string& text, const std::string& why) {
     INFO(text);
-    CHECK_THROWS_WITH(json::parse(text), Catch::Contains(why));
+    CHECK_THROWS_WITH(view::json::parse(text), Catch::Contains(why));
   };
   fails("", "unexpected end");
   fails("{", "expected a member name");
@@ -297,7 +298,7 @@ TEST_CASE("a page's updates: a snapshot, then only changes, each tuple once per 
   const std::string encoded = encodeUpdate(second);
   const auto message = parsed(encoded);
   CHECK(*message.member("type")->asString() == "update");
-  const auto& rows = std::get<json::Array>(message.member("table")->member("rows")->v);
+  const auto& rows = std::get<view::json::Array>(message.member("table")->member("rows")->v);
   REQUIRE(rows.size() == 1);
   CHECK(*rows[0].member("id")->asString() == "1.light");
   CHECK(*rows[0].member("value")->asString() == "on");
@@ -378,8 +379,8 @@ TEST_CASE("the graph: PEIS, links once each, and the configuration resolved", "[
   CHECK_FALSE(g.configuration[3].producerReachable);
 
   const auto message = parsed(encodeGraph(g, 50));
-  CHECK(std::get<json::Array>(message.member("nodes")->v).size() == 4);
-  CHECK(std::get<json::Array>(message.member("configuration")->v).size() == 4);
+  CHECK(std::get<view::json::Array>(message.member("nodes")->v).size() == 4);
+  CHECK(std::get<view::json::Array>(message.member("configuration")->v).size() == 4);
 
   CHECK_FALSE(resolveMetaValue("", peers));
   CHECK_FALSE(resolveMetaValue("nobody.x", peers));

@@ -3,8 +3,9 @@
 // and its files, the hello, the graph, the live table, edits that reach the
 // owner and the owner's error, pictures, and every kind of bad input (not
 // JSON, unknown commands, bad patterns, huge edits, foreign hosts and
-// origins, a page that stops reading, a page that floods). Deadlines are
-// generous; nothing asserts a timing.
+// origins, a page that stops reading, a page that floods); and the
+// meta-level panel against a real peis-configurator deploying a goal.
+// Deadlines are generous; nothing asserts a timing.
 #include <catch2/catch.hpp>
 #include <csignal>
 #include <fstream>
@@ -99,6 +100,8 @@ class Page {
   std::map<std::string, json::Value> rows;  // the table: id -> row
   std::string filter;                       // the table's filter
   std::optional<json::Value> graph;
+  std::map<std::string, json::Value> metaRows;  // the meta-level panel: id -> row
+  std::vector<json::Value> log;                 // the meta-level's changes, in order
   std::vector<json::Value> replies, errors;
   // Called with every update (for counting).
   std::function<void(const json::Value&)> onUpdate;
@@ -119,6 +122,29 @@ class Page {
       for (const auto& id : arrayOf(table->member("deleted"))) rows.erase(stringOf(&id));
     }
     if (const auto* g = m.member("graph")) graph = *g;
+    if (const auto* meta = m.member("meta")) {
+      if (*meta->member("reset")->asBool()) metaRows.clear();
+      for (const auto& row : arrayOf(meta->member("rows")))
+        metaRows[stringOf(row.member("id"))] = row;
+      for (const auto& id : arrayOf(meta->member("deleted"))) metaRows.erase(stringOf(&id));
+    }
+    if (const auto* l = m.member("log")) {
+      if (*l->member("reset")->asBool()) log.clear();
+      for (const auto& entry : arrayOf(l->member("entries"))) log.push_back(entry);
+    }
+  }
+
+  std::string metaValue(long owner, const std::string& key) const {
+    auto it = metaRows.find(std::to_string(owner) + "." + key);
+    return it == metaRows.end() ? "<absent>" : stringOf(it->second.member("value"));
+  }
+  // The id of the PEIS of that name in the graph, or 0.
+  long idOf(const std::string& name) const {
+    if (graph)
+      for (const auto& node : arrayOf(graph->member("nodes")))
+        if (stringOf(node.member("name")) == name)
+          return static_cast<long>(numberOf(node.member("id")));
+    return 0;
   }
 
   // Reads and applies messages until `condition` holds; fails at the deadline.
@@ -503,4 +529,83 @@ TEST_CASE("peis view runs peis-view and prints the URL, bad options exit 2", "[i
   CHECK(taken.first == 2);
   CHECK_THAT(taken.second, Contains("cannot listen on 127.0.0.1:" + std::to_string(first.port)) &&
                                Contains("--port N picks another port"));
+}
+
+TEST_CASE("the meta-level panel shows a real configurator's goal, answer, deployment and events",
+          "[integration]") {
+  const auto ecology = uniqueEcology("view-meta");
+  const std::string descriptors = std::string(PEIS_SOURCE_DIR) + "/tests/meta/descriptors/";
+  std::vector<std::unique_ptr<Process>> meta;
+  auto start = [&](std::vector<std::string> argv) {
+    argv.insert(argv.end(), {"--peis-ecology", ecology});
+    meta.push_back(std::make_unique<Process>(argv));
+  };
+  for (const auto& [name, descriptor] :
+       {std::pair{"pa", "position-cheap.yaml"}, std::pair{"c1", "consumer.yaml"}})
+    start({PEIS_SYNTHETIC_PATH, "--peis-name", name, "--descriptor", descriptors + descriptor,
+           "--period-ms", "100", "--freshness-ms", "1000"});
+  start({PEIS_CONFIGURATOR_PATH, "--peis-name", "cfg"});
+  auto everything = [&] {
+    std::string text;
+    for (const auto& p : meta) text += p->describe() + "\n";
+    return text;
+  };
+  INFO(everything());
+  REQUIRE(waitFor(
+      [&] {
+        return runCli(ecology, {"get", "cfg.config.configurator", "--wait", "5"}).out == "active\n";
+      },
+      60s));
+  View view(ecology);
+  Page browser(view.port);
+  browser.waitUntil([&] { return browser.idOf("cfg") && browser.idOf("c1") && browser.idOf("pa"); },
+                    "cfg, c1 and pa in the graph");
+  const long cfg = browser.idOf("cfg"), c1 = browser.idOf("c1"), pa = browser.idOf("pa");
+  browser.waitUntil([&] { return browser.metaValue(cfg, "config.configurator") == "active"; },
+                    "cfg.config.configurator = active in the meta-level panel");
+
+  // A goal posted as a tuple; the configurator plans, deploys and answers.
+  REQUIRE(runCli(ecology, {"set", "cfg.config.goal.view", "position@c1.mi-position"}).status == 0);
+  browser.waitUntil(
+      [&] { return browser.metaValue(cfg, "config.goal.view") == "position@c1.mi-position"; },
+      "the goal tuple in the panel");
+  browser.waitUntil(
+      [&] {
+        return browser.metaValue(cfg, "config.goal-status").find("config.goal.view") !=
+                   std::string::npos &&
+               browser.metaValue(cfg, "config.goal-status").find("deployed") != std::string::npos;
+      },
+      "the configurator's answer 'deployed' in the panel");
+  browser.waitUntil(
+      [&] {
+        return browser.metaValue(cfg, "config.deployed").find("c1.mi-position <- pa.position") !=
+               std::string::npos;
+      },
+      "config.deployed in the panel");
+  browser.waitUntil(
+      [&] {
+        return browser.metaValue(c1, "config.owned").find("mi-position") != std::string::npos;
+      },
+      "the deployment's record on the consumer");
+  auto deployedEvent = [&] {
+    for (const auto& entry : browser.log) {
+      const auto* row = entry.member("row");
+      if (numberOf(row->member("owner")) == cfg &&
+          stringOf(row->member("key")).rfind("config.event.", 0) == 0 &&
+          stringOf(row->member("value")).rfind("deployed generation", 0) == 0)
+        return true;
+    }
+    return false;
+  };
+  browser.waitUntil(deployedEvent, "the configurator's 'deployed' event in the log");
+  auto deployedLink = [&] {
+    if (!browser.graph) return false;
+    for (const auto& c : arrayOf(browser.graph->member("configuration")))
+      if (numberOf(c.member("consumer")) == c1 && numberOf(c.member("producer")) == pa &&
+          stringOf(c.member("producerKey")) == "position")
+        return true;
+    return false;
+  };
+  browser.waitUntil(deployedLink, "c1.mi-position <- pa.position in the graph");
+  CHECK(view.process->running());
 }

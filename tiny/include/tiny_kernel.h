@@ -27,6 +27,7 @@
 #ifndef TINY_KERNEL_H
 #define TINY_KERNEL_H
 
+#include "tiny_mac.h"
 #include "tiny_timing.h"
 #include "tiny_tuple.h"
 
@@ -53,6 +54,15 @@ extern "C" {
 #ifndef TINY_MAX_RX_PER_POLL
 #define TINY_MAX_RX_PER_POLL 8 /* frames taken from the radio per poll */
 #endif
+#ifndef TINY_MAX_KEYS
+#define TINY_MAX_KEYS 4 /* senders whose secured frames this node takes */
+#endif
+/* TINY_KEYS_IN_HAL (defined by the build, e.g. the ATmega128 port's): the
+ * kernel keeps no secured radio's key in RAM (16 bytes each); hal.load_key
+ * reads one from non-volatile memory when a frame is sealed or checked. */
+#ifndef TINY_COUNTER_BLOCK
+#define TINY_COUNTER_BLOCK 256u /* frames per write of the counter to non-volatile memory */
+#endif
 
 TINY_STATIC_ASSERT(TINY_MAX_TUPLES >= 1 && TINY_MAX_TUPLES <= 255, "TINY_MAX_TUPLES 1..255");
 TINY_STATIC_ASSERT(TINY_MAX_CACHE >= 1 && TINY_MAX_CACHE <= 255, "TINY_MAX_CACHE 1..255");
@@ -72,6 +82,15 @@ typedef struct tiny_hal {
   /* Milliseconds since an arbitrary origin, wrapping at 2^32. May be NULL:
    * then the time of the last tiny_poll is used. */
   uint32_t (*now_ms)(void *ctx);
+  /* A secured radio's frame counter, kept across restarts in non-volatile
+   * memory (EEPROM, a file): load the value stored last (0 the first
+   * time), store a new one. Return 0 on success. NULL on an open radio. */
+  int (*load_counter)(void *ctx, uint32_t *value);
+  int (*store_counter)(void *ctx, uint32_t value);
+  /* With TINY_KEYS_IN_HAL: copies the key of `node` (this node's own for
+   * its id, else a sender's given to tiny_trust) into key. Return 0 on
+   * success. Not used (may be NULL) otherwise. */
+  int (*load_key)(void *ctx, uint16_t node, uint8_t key[TINY_MAC_KEY_SIZE]);
 } tiny_hal;
 
 /* ---- results ----------------------------------------------------------- */
@@ -126,6 +145,17 @@ typedef struct tiny_neighbor_entry {
   uint32_t last_seen_ms;
 } tiny_neighbor_entry;
 
+/* A sender whose secured frames this node takes (tiny_trust). */
+typedef struct tiny_sender_key {
+  uint8_t used;
+  uint8_t may_write; /* its WRITE frames are applied (the bridge's) */
+  uint16_t node;
+  uint32_t next_counter; /* the lowest counter still taken from it */
+#ifndef TINY_KEYS_IN_HAL
+  uint8_t key[TINY_MAC_KEY_SIZE];
+#endif
+} tiny_sender_key;
+
 typedef struct tiny_kernel {
   uint16_t id;
   tiny_hal hal;
@@ -140,6 +170,17 @@ typedef struct tiny_kernel {
   tiny_sub_entry subs[TINY_MAX_SUBS];
   tiny_subscriber_entry subscribers[TINY_MAX_SUBSCRIBERS];
   tiny_neighbor_entry neighbors[TINY_MAX_NEIGHBORS];
+  /* A secured radio (tiny_secure): this node's key and frame counter, and
+   * the senders it takes frames from. */
+  uint8_t secured;
+#ifndef TINY_KEYS_IN_HAL
+  uint8_t key[TINY_MAC_KEY_SIZE];
+#endif
+  /* The next frame's counter; before the first of each block of
+   * TINY_COUNTER_BLOCK, the next block's start is stored, so no frame
+   * after a restart carries a counter used before. */
+  uint32_t counter;
+  tiny_sender_key senders[TINY_MAX_KEYS];
 } tiny_kernel;
 
 /* Resets *k to a node with id `id` (1..0xFFFE) on the given HAL. */
@@ -172,6 +213,22 @@ int tiny_unsubscribe(tiny_kernel *k, int handle);
 
 /* Whether tuple t matches a pattern. */
 int tiny_pattern_match(const tiny_pattern *p, const tiny_tuple *t);
+
+/* A secured radio (docs/security.md): from now on every frame this node
+ * sends carries its counter and a MAC under `key`, and it takes only
+ * secured frames of the senders added with tiny_trust. A tuple then holds
+ * at most TINY_SECURED_STORAGE (58) bytes of key and data. TINY_ERR_ARG if
+ * the HAL cannot keep the counter (load_counter, store_counter). With
+ * TINY_KEYS_IN_HAL, `key` is not kept (it may be NULL): hal.load_key gives
+ * it, and must be set. */
+int tiny_secure(tiny_kernel *k, const uint8_t key[TINY_MAC_KEY_SIZE]);
+/* Takes secured frames from `node` (its MAC under `key`); with `may_write`
+ * also its WRITE frames (the bridge's). Again for a known node: replaces
+ * its key. TINY_ERR_FULL when TINY_MAX_KEYS senders are known. With
+ * TINY_KEYS_IN_HAL, `key` is not kept (it may be NULL): hal.load_key gives
+ * it. */
+int tiny_trust(tiny_kernel *k, uint16_t node, const uint8_t key[TINY_MAC_KEY_SIZE],
+               uint8_t may_write);
 
 /* Counters, live remote subscribers of own tuples, neighbours heard. */
 const tiny_stats *tiny_get_stats(const tiny_kernel *k);

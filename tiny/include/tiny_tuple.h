@@ -80,6 +80,27 @@ extern "C" {
 #define TINY_FRAME_HEADER_SIZE 8
 #define TINY_FRAME_PAYLOAD_MAX (TINY_FRAME_MAX - TINY_FRAME_HEADER_SIZE) /* 92 */
 
+/* ---- secured frames (docs/tiny-tuple.md, docs/security.md) ------------
+ * On a secured radio every frame has version TINY_SECURED_VERSION and ends
+ * in a 12-byte trailer:
+ *
+ *   off     size field
+ *   len-12  4    counter   the sender's frame counter, little-endian,
+ *                          strictly increasing (never reused, restarts
+ *                          included: it is kept in non-volatile memory)
+ *   len-8   8    mac       SipHash-2-4 under the sender's 16-byte key over
+ *                          every byte before it
+ *
+ * A receiver takes a frame only from a sender whose key it holds, with a
+ * MAC that checks and a counter above the last one it took from it. The
+ * trailer leaves 58 bytes of key and data in a tuple (70 - 12). */
+#define TINY_SECURED_VERSION 2
+#define TINY_COUNTER_SIZE 4
+#define TINY_MAC_SIZE 8
+#define TINY_SECURED_OVERHEAD (TINY_COUNTER_SIZE + TINY_MAC_SIZE) /* 12 */
+#define TINY_MAC_KEY_SIZE 16
+#define TINY_SECURED_STORAGE (TINY_TUPLE_STORAGE_SIZE - TINY_SECURED_OVERHEAD) /* 58 */
+
 #define TINY_FOFF_TYPE 0
 #define TINY_FOFF_VERSION 1
 #define TINY_FOFF_SRC 2
@@ -150,31 +171,45 @@ typedef struct tiny_frame {
   uint32_t beacon_uptime_ms;
 } tiny_frame;
 
+/* A counter of tiny_stats: 32 bits, or 16 with TINY_STATS_16 (the
+ * ATmega128 port: 52 bytes of RAM less; they wrap at 65,535). */
+#ifdef TINY_STATS_16
+typedef uint16_t tiny_count;
+#else
+typedef uint32_t tiny_count;
+#endif
+
 /* Counters of a decoder (and of a kernel, which embeds one). Every frame
  * that is dropped is counted under exactly one drop reason. */
 typedef struct tiny_stats {
-  uint32_t frames_rx;             /* frames handed to the decoder */
-  uint32_t frames_ok;             /* frames that decoded */
-  uint32_t frames_tx;             /* frames sent (kernel) */
-  uint32_t send_errors;           /* HAL send failures (kernel) */
-  uint32_t drop_truncated;        /* shorter than its header or declared fields */
-  uint32_t drop_bad_length;       /* longer than declared, or over 100 bytes */
-  uint32_t drop_bad_version;      /* version byte is not ours */
-  uint32_t drop_unknown_type;     /* type byte is not a TINY_FRAME_* */
-  uint32_t drop_too_many_subkeys; /* key_len > 7 */
-  uint32_t drop_bad_key;          /* tuple key_len 0, or unknown sub flags */
-  uint32_t drop_data_too_long;    /* data_len > 68, or key + data > 70 */
-  uint32_t drop_bad_src;          /* src is 0 or broadcast */
+  tiny_count frames_rx;             /* frames handed to the decoder */
+  tiny_count frames_ok;             /* frames that decoded */
+  tiny_count frames_tx;             /* frames sent (kernel) */
+  tiny_count send_errors;           /* HAL send failures (kernel) */
+  tiny_count drop_truncated;        /* shorter than its header or declared fields */
+  tiny_count drop_bad_length;       /* longer than declared, or over 100 bytes */
+  tiny_count drop_bad_version;      /* version byte is not ours */
+  tiny_count drop_unknown_type;     /* type byte is not a TINY_FRAME_* */
+  tiny_count drop_too_many_subkeys; /* key_len > 7 */
+  tiny_count drop_bad_key;          /* tuple key_len 0, or unknown sub flags */
+  tiny_count drop_data_too_long;    /* data_len > 68, or key + data > 70 */
+  tiny_count drop_bad_src;          /* src is 0 or broadcast */
   /* kernel-level outcomes of frames that decoded */
-  uint32_t tuples_accepted;  /* new value in the cache, callbacks ran */
-  uint32_t tuples_stale;     /* seqno not newer than the cached one */
-  uint32_t tuples_unwanted;  /* no local subscription matches */
-  uint32_t not_for_me;       /* addressed to another node */
-  uint32_t cache_full;       /* wanted remote tuple, no room in the cache */
-  uint32_t subscribers_full; /* new subscriber, no room in the table */
-  uint32_t neighbors_full;   /* new neighbour, no room in the table */
-  uint32_t writes_accepted;  /* write requests applied to own tuples */
-  uint32_t writes_refused;   /* write requests for another owner, or no free slot */
+  tiny_count tuples_accepted;  /* new value in the cache, callbacks ran */
+  tiny_count tuples_stale;     /* seqno not newer than the cached one */
+  tiny_count tuples_unwanted;  /* no local subscription matches */
+  tiny_count not_for_me;       /* addressed to another node */
+  tiny_count cache_full;       /* wanted remote tuple, no room in the cache */
+  tiny_count subscribers_full; /* new subscriber, no room in the table */
+  tiny_count neighbors_full;   /* new neighbour, no room in the table */
+  tiny_count writes_accepted;  /* write requests applied to own tuples */
+  tiny_count writes_refused;   /* write requests for another owner, or no free slot */
+  /* a secured radio (tiny_kernel.h, tiny_secure) */
+  tiny_count drop_unsecured;      /* not a secured frame */
+  tiny_count drop_unknown_sender; /* a sender whose key this node does not hold */
+  tiny_count drop_bad_mac;        /* its MAC does not check */
+  tiny_count drop_replay;         /* its counter is not above the last one taken */
+  tiny_count drop_forged_owner;   /* a node's frame with another's tuple */
 } tiny_stats;
 
 /* Decode results; TINY_DECODE_OK is 0, the others name the drop reason. */
@@ -224,6 +259,14 @@ TINY_STATIC_ASSERT(TINY_FRAME_HEADER_SIZE + TINY_SUB_FIXED_SIZE + TINY_MAX_KEY_B
                    "the largest subscription fits one frame");
 TINY_STATIC_ASSERT(TINY_FRAME_HEADER_SIZE + TINY_BEACON_SIZE <= TINY_FRAME_MAX,
                    "a beacon fits one frame");
+TINY_STATIC_ASSERT(TINY_FRAME_HEADER_SIZE + TINY_TUPLE_HEADER_SIZE + TINY_SECURED_STORAGE +
+                           TINY_SECURED_OVERHEAD ==
+                       TINY_FRAME_MAX,
+                   "the largest secured tuple fits one frame exactly");
+TINY_STATIC_ASSERT(TINY_FRAME_HEADER_SIZE + TINY_SUB_FIXED_SIZE + TINY_MAX_KEY_BYTES +
+                           TINY_SECURED_OVERHEAD <=
+                       TINY_FRAME_MAX,
+                   "the largest secured subscription fits one frame");
 
 /* ---- functions --------------------------------------------------------- */
 

@@ -48,7 +48,41 @@ int tiny_pattern_match(const tiny_pattern *p, const tiny_tuple *t) {
   return 1;
 }
 
-static int send_frame(tiny_kernel *k, const uint8_t *buf, size_t len) {
+/* The next frame's counter on a secured radio; the counter stored ahead,
+ * a block at a time (before a block's first is used, the next block's
+ * start), so a restart never reuses one. 0 if it cannot be stored (the
+ * frame is then not sent). */
+static int take_counter(tiny_kernel *k, uint32_t *counter) {
+  if (k->counter % TINY_COUNTER_BLOCK == 0 &&
+      (k->counter > 0xFFFFFFFFu - TINY_COUNTER_BLOCK ||
+       k->hal.store_counter(k->hal.ctx, k->counter + TINY_COUNTER_BLOCK) != 0))
+    return 0;
+  *counter = k->counter++;
+  return 1;
+}
+
+/* The key of `node` (k->id: this node's own; else sender s's): kept in
+ * RAM, or read into buf through the HAL (TINY_KEYS_IN_HAL). NULL if the
+ * HAL has none. */
+static const uint8_t *key_of(tiny_kernel *k, uint16_t node, const tiny_sender_key *s,
+                             uint8_t *buf) {
+#ifdef TINY_KEYS_IN_HAL
+  (void)s;
+  return k->hal.load_key(k->hal.ctx, node, buf) == 0 ? buf : NULL;
+#else
+  (void)node;
+  (void)buf;
+  return s != NULL ? s->key : k->key;
+#endif
+}
+
+static int send_frame(tiny_kernel *k, uint8_t *buf, size_t len) {
+  uint32_t counter;
+  uint8_t key_buf[TINY_MAC_KEY_SIZE];
+  if (k->secured && len != 0) {
+    const uint8_t *key = key_of(k, k->id, NULL, key_buf);
+    len = key != NULL && take_counter(k, &counter) ? tiny_seal_frame(buf, len, key, counter) : 0;
+  }
   if (len == 0 || len > TINY_FRAME_MAX || k->hal.send == NULL ||
       k->hal.send(k->hal.ctx, buf, (uint8_t)len) != 0) {
     ++k->stats.send_errors;
@@ -56,6 +90,14 @@ static int send_frame(tiny_kernel *k, const uint8_t *buf, size_t len) {
   }
   ++k->stats.frames_tx;
   return TINY_OK;
+}
+
+static tiny_sender_key *sender_of(tiny_kernel *k, uint16_t node) {
+  uint8_t i;
+  for (i = 0; i < TINY_MAX_KEYS; ++i) {
+    if (k->senders[i].used && k->senders[i].node == node) return &k->senders[i];
+  }
+  return NULL;
 }
 
 static uint16_t next_seq(tiny_kernel *k) { return k->frame_seq++; }
@@ -137,6 +179,54 @@ unsigned tiny_neighbor_count(const tiny_kernel *k) {
 
 const tiny_stats *tiny_get_stats(const tiny_kernel *k) { return &k->stats; }
 
+int tiny_secure(tiny_kernel *k, const uint8_t key[TINY_MAC_KEY_SIZE]) {
+  uint32_t stored = 0;
+#ifdef TINY_KEYS_IN_HAL
+  (void)key;
+  if (k->hal.load_key == NULL) return TINY_ERR_ARG;
+#else
+  if (key == NULL) return TINY_ERR_ARG;
+#endif
+  /* The first block at or above the stored counter: stored ahead, so the
+   * HAL is known to keep it. */
+  if (k->hal.load_counter == NULL || k->hal.store_counter == NULL ||
+      k->hal.load_counter(k->hal.ctx, &stored) != 0 ||
+      stored > 0xFFFFFFFFu - 2 * TINY_COUNTER_BLOCK)
+    return TINY_ERR_ARG;
+  stored = (stored + TINY_COUNTER_BLOCK - 1) / TINY_COUNTER_BLOCK * TINY_COUNTER_BLOCK;
+  if (k->hal.store_counter(k->hal.ctx, stored + TINY_COUNTER_BLOCK) != 0) return TINY_ERR_ARG;
+#ifndef TINY_KEYS_IN_HAL
+  memcpy(k->key, key, TINY_MAC_KEY_SIZE);
+#endif
+  k->counter = stored;
+  k->secured = 1;
+  return TINY_OK;
+}
+
+int tiny_trust(tiny_kernel *k, uint16_t node, const uint8_t key[TINY_MAC_KEY_SIZE],
+               uint8_t may_write) {
+  uint8_t i;
+  tiny_sender_key *slot = sender_of(k, node);
+#ifdef TINY_KEYS_IN_HAL
+  (void)key;
+#else
+  if (key == NULL) return TINY_ERR_ARG;
+#endif
+  if (node == TINY_ID_NONE || node == TINY_ID_BROADCAST) return TINY_ERR_ARG;
+  for (i = 0; slot == NULL && i < TINY_MAX_KEYS; ++i) {
+    if (!k->senders[i].used) slot = &k->senders[i];
+  }
+  if (slot == NULL) return TINY_ERR_FULL;
+  slot->used = 1;
+  slot->node = node;
+  slot->may_write = may_write;
+  slot->next_counter = 0;
+#ifndef TINY_KEYS_IN_HAL
+  memcpy(slot->key, key, TINY_MAC_KEY_SIZE);
+#endif
+  return TINY_OK;
+}
+
 static int set_own(tiny_kernel *k, const tiny_key *key, const void *data, uint8_t len,
                    uint32_t ts_user, uint32_t expire_ms, uint16_t creator);
 
@@ -155,7 +245,9 @@ static int set_own(tiny_kernel *k, const tiny_key *key, const void *data, uint8_
   tiny_own_entry *slot = NULL;
   uint32_t seqno = 1;
   if (!key_valid(key) || len > TINY_MAX_DATA ||
-      TINY_SUBKEY_SIZE * key->len + len > TINY_TUPLE_STORAGE_SIZE || (len > 0 && data == NULL))
+      TINY_SUBKEY_SIZE * key->len + len >
+          (k->secured ? TINY_SECURED_STORAGE : TINY_TUPLE_STORAGE_SIZE) ||
+      (len > 0 && data == NULL))
     return TINY_ERR_ARG;
   for (i = 0; i < TINY_MAX_TUPLES; ++i) {
     if (k->own[i].used && tuple_has_key(&k->own[i].t, key)) {
@@ -380,11 +472,54 @@ static void on_beacon(tiny_kernel *k, const tiny_frame *f) {
   slot->last_seen_ms = k->now_ms;
 }
 
+/* A secured radio: the frame's sender, if it is known, its MAC checks and
+ * its counter is new (then the trailer is cut off: *n shrinks). */
+static tiny_sender_key *authentic(tiny_kernel *k, const uint8_t *buf, int *n) {
+  tiny_sender_key *s;
+  const uint8_t *key;
+  uint8_t key_buf[TINY_MAC_KEY_SIZE];
+  uint32_t counter;
+  uint16_t src;
+  if (*n < TINY_FRAME_HEADER_SIZE + TINY_SECURED_OVERHEAD ||
+      buf[TINY_FOFF_VERSION] != TINY_SECURED_VERSION) {
+    ++k->stats.drop_unsecured;
+    return NULL;
+  }
+  src = (uint16_t)(buf[TINY_FOFF_SRC] | buf[TINY_FOFF_SRC + 1] << 8);
+  s = sender_of(k, src);
+  if (s == NULL) {
+    if (src == k->id) {
+      ++k->stats.not_for_me;
+    } else {
+      ++k->stats.drop_unknown_sender;
+    }
+    return NULL;
+  }
+  key = key_of(k, src, s, key_buf);
+  if (key == NULL || !tiny_frame_mac_ok(buf, (size_t)*n, key)) {
+    ++k->stats.drop_bad_mac;
+    return NULL;
+  }
+  counter = tiny_frame_counter(buf, (size_t)*n);
+  if (counter < s->next_counter) {
+    ++k->stats.drop_replay;
+    return NULL;
+  }
+  s->next_counter = counter + 1u;
+  *n -= TINY_SECURED_OVERHEAD;
+  return s;
+}
+
 static void handle_frame(tiny_kernel *k, const uint8_t *buf, int n) {
   tiny_frame f;
+  tiny_sender_key *sender = NULL;
   if (n > TINY_FRAME_MAX) { /* cut by the HAL: count it, never read it */
     ++k->stats.frames_rx;
     ++k->stats.drop_bad_length;
+    return;
+  }
+  if (k->secured && (sender = authentic(k, buf, &n)) == NULL) {
+    ++k->stats.frames_rx;
     return;
   }
   if (tiny_decode_frame(buf, (size_t)n, &f, &k->stats) != TINY_DECODE_OK) return;
@@ -394,6 +529,12 @@ static void handle_frame(tiny_kernel *k, const uint8_t *buf, int n) {
   }
   switch (f.type) {
     case TINY_FRAME_TUPLE:
+      /* On a secured radio a node speaks for its own tuples only; the
+       * bridge (a writer) relays those of full PEIS. */
+      if (sender != NULL && !sender->may_write && f.tuple.owner != f.src) {
+        ++k->stats.drop_forged_owner;
+        break;
+      }
       on_tuple(k, &f);
       break;
     case TINY_FRAME_SUBSCRIBE:
@@ -404,6 +545,10 @@ static void handle_frame(tiny_kernel *k, const uint8_t *buf, int n) {
       on_beacon(k, &f);
       break;
     case TINY_FRAME_WRITE:
+      if (sender != NULL && !sender->may_write) { /* only the bridge writes */
+        ++k->stats.writes_refused;
+        break;
+      }
       on_write(k, &f);
       break;
     default:

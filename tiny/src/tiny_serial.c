@@ -102,6 +102,7 @@ static int serial_recv(void *ctx, uint8_t *buf, uint8_t cap) {
 
 tiny_hal tiny_serial_hal(tiny_serial_port *port, uint32_t (*now_ms)(void *ctx)) {
   tiny_hal hal;
+  memset(&hal, 0, sizeof hal); /* no counter storage: an open radio */
   hal.ctx = port;
   hal.send = serial_send;
   hal.recv = serial_recv;

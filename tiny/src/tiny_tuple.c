@@ -174,7 +174,10 @@ static tiny_decode_result decode(const uint8_t *buf, size_t len, tiny_frame *out
   uint8_t i, key_len;
   if (buf == NULL || len < TINY_FRAME_HEADER_SIZE) return TINY_DECODE_TRUNCATED;
   if (len > TINY_FRAME_MAX) return TINY_DECODE_BAD_LENGTH;
-  if (buf[TINY_FOFF_VERSION] != TINY_PROTOCOL_VERSION) return TINY_DECODE_BAD_VERSION;
+  /* A secured frame's trailer is checked and cut off before (tiny_mac.h). */
+  if (buf[TINY_FOFF_VERSION] != TINY_PROTOCOL_VERSION &&
+      buf[TINY_FOFF_VERSION] != TINY_SECURED_VERSION)
+    return TINY_DECODE_BAD_VERSION;
   memset(out, 0, sizeof *out);
   out->type = buf[TINY_FOFF_TYPE];
   out->src = get16(buf + TINY_FOFF_SRC);

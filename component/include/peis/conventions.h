@@ -13,10 +13,14 @@
 //                             is `fact.in-view.pippi.cam1` = `true`
 //   <activation>.reqState     `on` / `off` (or the active bindings) for a
 //                             functionality with an activation actuator
+//   components.<c>.<field>    a launcher's (peis-init) tuples of component c:
+//                             reqState, currState, status, peisName, descriptor…
 #pragma once
 
+#include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 
 namespace peis::conventions {
 
@@ -86,6 +90,59 @@ inline std::string actuatorStatusKey(std::string_view actuator) {
 // "track" + "inputs" -> "functionality.track.inputs".
 inline std::string functionalityKey(std::string_view functionality, std::string_view field) {
   return std::string(kFunctionalityPrefix) + std::string(functionality) + "." + std::string(field);
+}
+
+// --- The launcher (peis-init, docs/operating.md) ---------------------------------
+// A launcher PEIS starts and stops the components of one machine. In its
+// namespace, for each component c of its component files, it publishes
+// `components.<c>.<field>`; `components.<c>` is an actuator of the convention
+// above: anyone writes `components.<c>.reqState` = `on` / `off`, the
+// launcher answers in `.currState` and `.status`. `.peisName` is the PEIS
+// name c joins as, `.descriptor` its functionality descriptor (YAML), so the
+// meta-level can plan with components that do not run yet.
+inline constexpr std::string_view kLauncherComponents = "launcher.components";  // names, one space
+inline constexpr std::string_view kLauncherFolder = "launcher.folder";
+inline constexpr std::string_view kLaunchPrefix = "components.";
+// The fields of components.<c>.
+inline constexpr std::string_view kLaunchReqState = "reqState";
+inline constexpr std::string_view kLaunchCurrState = "currState";
+inline constexpr std::string_view kLaunchStatus = "status";
+inline constexpr std::string_view kLaunchPid = "pid";
+inline constexpr std::string_view kLaunchExitCode = "exitCode";
+inline constexpr std::string_view kLaunchRestarts = "restarts";
+inline constexpr std::string_view kLaunchStdout = "stdout";
+inline constexpr std::string_view kLaunchStderr = "stderr";
+inline constexpr std::string_view kLaunchPeisName = "peisName";
+inline constexpr std::string_view kLaunchExecutable = "executable";
+inline constexpr std::string_view kLaunchFile = "file";
+inline constexpr std::string_view kLaunchDescriptor = "descriptor";
+// Values of components.<c>.currState (reqState takes `on` and `off`).
+inline constexpr std::string_view kLaunchOff = "off";
+inline constexpr std::string_view kLaunchStarting = "starting";
+inline constexpr std::string_view kLaunchOn = "on";
+inline constexpr std::string_view kLaunchStopping = "stopping";
+inline constexpr std::string_view kLaunchRestarting =
+    "restarting";  // crashed, waiting out a back-off
+inline constexpr std::string_view kLaunchFailed = "failed";
+
+// "tracker", "reqState" -> "components.tracker.reqState".
+inline std::string launchKey(std::string_view component, std::string_view field) {
+  return std::string(kLaunchPrefix) + std::string(component) + "." + std::string(field);
+}
+// "tracker" -> "components.tracker": the component's actuator name.
+inline std::string launchActuator(std::string_view component) {
+  return std::string(kLaunchPrefix) + std::string(component);
+}
+// "components.tracker.reqState" -> {"tracker", "reqState"}; nothing for any
+// other key (the component name is one key part, the field one more).
+inline std::optional<std::pair<std::string, std::string>> parseLaunchKey(std::string_view key) {
+  if (key.substr(0, kLaunchPrefix.size()) != kLaunchPrefix) return std::nullopt;
+  const auto rest = key.substr(kLaunchPrefix.size());
+  const auto dot = rest.find('.');
+  if (dot == std::string_view::npos || dot == 0 || dot + 1 >= rest.size()) return std::nullopt;
+  const auto field = rest.substr(dot + 1);
+  if (field.find('.') != std::string_view::npos) return std::nullopt;
+  return std::make_pair(std::string(rest.substr(0, dot)), std::string(field));
 }
 
 }  // namespace peis::conventions

@@ -27,6 +27,8 @@ Options:
   --world NAME          the simulated world PEIS (default: world)
   --min-brightness B    0..255 (default 90)
   --full-exposure LUX   lux at which a region shows its full colour (default 300)
+  --robot NAME          the robot the camera is on: its photos are image(NAME) to
+                        the configuration planner (default: this PEIS's name)
   --help                this text
 )usage";
 
@@ -50,6 +52,7 @@ std::optional<std::array<int, 3>> colourOf(const std::string& worldYaml, const s
 int main(int argc, char** argv) {
   peis::Kernel kernel(argc, argv);
   std::string worldName = "world";
+  std::string robot;
   double minBrightness = 90;
   peis::devices::PhotoSettings settings;
   const int code = peis::exec::parseProgramOptions(
@@ -62,14 +65,23 @@ int main(int argc, char** argv) {
           minBrightness = *number;
         else if (name == "--full-exposure" && number && *number > 0)
           settings.fullExposureLux = *number;
+        else if (name == "--robot" && !value.empty() && value[0] != '?' &&
+                 peis::Term::parse("image(" + value + ")"))
+          robot = value;
         else
           return false;
         return true;
       });
   if (code >= 0) return code;
-  peis::Component component(
-      kernel, "photo-camera",
-      peis::Descriptor::fromYaml(kPhotoCameraDescriptor, "photo_camera.yaml"));
+  peis::Descriptor descriptor =
+      peis::Descriptor::fromYaml(kPhotoCameraDescriptor, "photo_camera.yaml");
+  if (!robot.empty()) {  // image(?self) -> image(astrid)
+    for (auto& f : descriptor.functionalities)
+      for (auto& port : f.outputs)
+        if (const auto at = port.type.find("?self"); at != std::string::npos)
+          port.type.replace(at, 5, robot);
+  }
+  peis::Component component(kernel, "photo-camera", descriptor);
   peis::PeisId world = 0;
   std::uint32_t shots = 0;
   std::unique_ptr<peis::exec::ExecServer> server;

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -105,7 +106,11 @@ int main(int argc, char** argv) {
           std::string problem;
           const auto seconds =
               code == 0 ? peis::devices::wavSeconds(bytes.str(), &problem) : std::nullopt;
-          kernel.post([&, id, action, words, file, code, seconds, problem] {
+          // The driver may not be known yet (it joined after this PEIS
+          // started): wait for it here, off the kernel thread, a while.
+          std::optional<peis::PeisId> driver;
+          if (!base.empty()) driver = kernel.waitForPeer(base, std::chrono::seconds(10));
+          kernel.post([&, id, action, words, file, code, seconds, problem, driver] {
             if (code != 0) {
               server->publish({peis::exec::ExecState::Failed, id, action,
                                code < 0 ? "cannot run " + espeak
@@ -121,11 +126,13 @@ int main(int argc, char** argv) {
             std::snprintf(text, sizeof text, " %.2f ", *seconds);
             kernel.set("speech", std::filesystem::absolute(file).string() + text + words);
             if (!base.empty()) {
-              try {
-                kernel.setAsync(kernel.resolveOwner(base), "TalkCommand", words);
-              } catch (const peis::Error& e) {
-                std::cerr << "talk: no driver " << base << ": " << e.what() << std::endl;
+              if (!driver) {
+                std::cerr << "talk: no driver PEIS named " << base << " within 10 s" << std::endl;
+                server->publish(
+                    {peis::exec::ExecState::Failed, id, action, "no driver PEIS named " + base});
+                return;
               }
+              kernel.setAsync(*driver, "TalkCommand", words);
             }
             server->publish({peis::exec::ExecState::Success, id, action, ""});
           });

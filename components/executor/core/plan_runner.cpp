@@ -35,7 +35,11 @@ void ActionMap::add(const std::string& rule) {
       colon + 1 == rule.size())
     throw std::invalid_argument("action rule '" + rule +
                                 "': expected NAME=PEIS:GOAL, e.g. GoTo=$1:GoTo($2)");
-  rules_[rule.substr(0, eq)] = {rule.substr(eq + 1, colon - eq - 1), rule.substr(colon + 1)};
+  const std::string peis = rule.substr(eq + 1, colon - eq - 1), goal = rule.substr(colon + 1);
+  if (peis == "set" && (goal.find('=') == std::string::npos || goal.front() == '='))
+    throw std::invalid_argument("action rule '" + rule +
+                                "': expected NAME=set:KEY=VALUE, e.g. TurnOn=set:LightValue=100");
+  rules_[rule.substr(0, eq)] = {peis, goal};
 }
 
 namespace {
@@ -79,6 +83,13 @@ std::optional<Dispatch> ActionMap::map(const PlanStep& step, std::string& why) c
   if (!substitute(rule->second.first, step.args, dispatch.peis, why) ||
       !substitute(rule->second.second, step.args, dispatch.goal, why))
     return std::nullopt;
+  if (rule->second.first == "set") {  // KEY=VALUE, written by the executor itself
+    const auto eq = dispatch.goal.find('=');
+    dispatch.setKey = dispatch.goal.substr(0, eq);
+    dispatch.goal = dispatch.goal.substr(eq + 1);
+    dispatch.peis.clear();
+    return dispatch;
+  }
   std::string problem;
   if (!exec::parseAction(dispatch.goal, &problem)) {
     why = "the goal '" + dispatch.goal + "' is not an action: " + problem;

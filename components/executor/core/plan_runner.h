@@ -35,9 +35,14 @@ struct PlanStep {
 };
 
 // Where a step is executed, and the ExecGoal written there.
+// A rule `set:KEY=VALUE` is carried out by the executor itself: it writes its
+// own tuple KEY = VALUE (`TurnOn=set:LightValue=100`: Astrid sets
+// <6890, LightValue, 100>, which the lamp's tiny node listens to), and the
+// step succeeds once written.
 struct Dispatch {
-  std::string peis;  // PEIS name or id
-  std::string goal;  // ExecGoal text, e.g. `GoTo(bed)`
+  std::string peis;      // PEIS name or id; empty with setKey
+  std::string goal;      // ExecGoal text, e.g. `GoTo(bed)`; with setKey: the value
+  std::string setKey{};  // non-empty: write this own tuple instead of an ExecGoal
   bool operator==(const Dispatch&) const = default;
 };
 
@@ -47,7 +52,8 @@ struct Dispatch {
 // PEIS = the first argument, goal = the action with the other arguments.
 class ActionMap {
  public:
-  // Parses `NAME=PEIS:GOAL`; throws std::invalid_argument naming the problem.
+  // Parses `NAME=PEIS:GOAL` or `NAME=set:KEY=VALUE`; throws
+  // std::invalid_argument naming the problem.
   void add(const std::string& rule);
   // The dispatch of a step, or nothing with the reason in `why`.
   std::optional<Dispatch> map(const PlanStep& step, std::string& why) const;

@@ -71,6 +71,35 @@ bool bindRest(const std::vector<Literal>& preconditions, std::size_t i, Binding&
   return false;
 }
 
+// The effects the failed step's action declares for its cause, applied to
+// `state` (its parameters bound to the step's arguments, its other
+// variables to facts of the state as far as they can be).
+void applyFailure(const meta::task::Domain& domain, const FailedStep& failed,
+                  const std::set<Term>& types, std::set<Term>& state) {
+  const auto action = std::find_if(domain.actions.begin(), domain.actions.end(),
+                                   [&](const Action& a) { return a.name == failed.step.action; });
+  if (action == domain.actions.end() || action->parameters.size() != failed.step.args.size())
+    return;
+  Binding b;
+  for (std::size_t i = 0; i < failed.step.args.size(); ++i)
+    b[action->parameters[i].first] = failed.step.args[i];
+  std::set<Term> known = state;
+  known.insert(types.begin(), types.end());
+  Binding full = b;
+  if (bindRest(action->preconditions, 0, full, known)) b = full;
+  for (const auto& f : action->failures) {
+    if (failed.cause.find(f.cause) == std::string::npos) continue;
+    for (const auto& e : f.effects) {
+      const Term g = ground(e.atom, b);
+      if (!g.isGround()) continue;
+      if (e.negated)
+        state.erase(g);
+      else
+        state.insert(g);
+    }
+  }
+}
+
 }  // namespace
 
 std::vector<Literal> parseTask(std::string_view text) {
@@ -111,11 +140,19 @@ std::vector<Literal> parseTask(std::string_view text) {
 }
 
 std::vector<Term> stateAfter(const meta::task::Domain& domain, const meta::task::Problem& problem,
-                             const std::vector<PlanStep>& done) {
+                             const std::vector<PlanStep>& done,
+                             const std::vector<FailedStep>& failures) {
   std::set<Term> state(problem.init.begin(), problem.init.end());
   std::set<Term> types;  // `robot(pippi)` for the objects: preconditions may name them
   for (const auto& [object, type] : problem.objects) types.insert(Term{type, {object}});
+  std::size_t index = 0;
+  auto failuresAt = [&](std::size_t at) {
+    for (const auto& f : failures)
+      if (f.after == at || (at == done.size() && f.after > at))
+        applyFailure(domain, f, types, state);
+  };
   for (const auto& step : done) {
+    failuresAt(index++);
     const auto action = std::find_if(domain.actions.begin(), domain.actions.end(),
                                      [&](const Action& a) { return a.name == step.action; });
     if (action == domain.actions.end())
@@ -139,6 +176,7 @@ std::vector<Term> stateAfter(const meta::task::Domain& domain, const meta::task:
       if (!e.negated) state.insert(ground(e.atom, b));
     }
   }
+  failuresAt(done.size());
   // The problem's facts that still hold in their order, then the new ones
   // (the planner breaks ties by order: the same state plans the same way).
   std::vector<Term> out;
@@ -150,9 +188,10 @@ std::vector<Term> stateAfter(const meta::task::Domain& domain, const meta::task:
 }
 
 PlannedTask planFrom(const meta::task::Domain& domain, const meta::task::Problem& problem,
-                     const std::vector<Literal>& goal, const std::vector<PlanStep>& done) {
+                     const std::vector<Literal>& goal, const std::vector<PlanStep>& done,
+                     const std::vector<FailedStep>& failures) {
   meta::task::Problem now = problem;
-  now.init = stateAfter(domain, problem, done);
+  now.init = stateAfter(domain, problem, done, failures);
   now.goal = goal;
   meta::task::TaskPlanOptions options;
   options.timeLimit = std::chrono::seconds(5);

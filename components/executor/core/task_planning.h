@@ -26,8 +26,20 @@ std::vector<meta::task::Literal> parseTask(std::string_view text);
 // arguments and its other variables to facts of the state (its positive
 // preconditions), then its effects applied. Throws std::invalid_argument when
 // a step does not fit the domain or cannot be applied in the state.
+//
+// `failures` are the steps that failed on the way, each with its cause and
+// how many of `done` came before it: the effects its action declares for
+// that cause (`on-failure:`, matched by containment: "too dark" in "… failed
+// on astrid-camera: too dark (…)") are applied there — what each failure
+// taught about the state, kept across every replan of the task.
+struct FailedStep {
+  PlanStep step;
+  std::string cause;
+  std::size_t after = 0;  // the number of done steps before it
+};
 std::vector<Term> stateAfter(const meta::task::Domain& domain, const meta::task::Problem& problem,
-                             const std::vector<PlanStep>& done);
+                             const std::vector<PlanStep>& done,
+                             const std::vector<FailedStep>& failures = {});
 
 struct PlannedTask {
   bool found = false;
@@ -38,6 +50,7 @@ struct PlannedTask {
 // Plans `goal` from the state after `done`.
 PlannedTask planFrom(const meta::task::Domain& domain, const meta::task::Problem& problem,
                      const std::vector<meta::task::Literal>& goal,
-                     const std::vector<PlanStep>& done = {});
+                     const std::vector<PlanStep>& done = {},
+                     const std::vector<FailedStep>& failures = {});
 
 }  // namespace peis::executor

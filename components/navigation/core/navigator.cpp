@@ -133,6 +133,7 @@ NavOutput Navigator::onGoal(const exec::Action& action, std::uint64_t goalId) {
   goal_ = Goal{goalId, text, target.value_or(Target{}), -1,
                waitForPlaces ? std::optional<exec::Action>(action) : std::nullopt};
   replans_ = 0;
+  marksForgotten_ = false;
   if (costmap_.grid().cells() != mapGrid_.cells()) costmap_ = Costmap(mapGrid_, options_.inflation);
   state_ = NavState::Pending;
   out.statuses.push_back({exec::ExecState::Running, goalId, text, ""});
@@ -144,8 +145,19 @@ NavOutput Navigator::onGoal(const exec::Action& action, std::uint64_t goalId) {
 }
 
 bool Navigator::plan(NavOutput& out, const Pose2& pose) {
-  const PlannedPath planned =
+  PlannedPath planned =
       planPath(costmap_, pose.position(), goal_->target.position, options_.planner);
+  if (!planned.found() && !marksForgotten_ && costmap_.grid().cells() != mapGrid_.cells()) {
+    // What the sonars and the bumper marked may be what boxes the robot in
+    // (someone who has walked on, echoes marked while the estimate jumped):
+    // forgotten once per goal, planned on the map alone. What is really
+    // there is seen and marked again, and a second trap fails the goal.
+    marksForgotten_ = true;
+    costmap_ = Costmap(mapGrid_, options_.inflation);
+    out.log.push_back(std::string(toString(planned.failure)) +
+                      " with the obstacles marked: forgetting them, planning on the map");
+    planned = planPath(costmap_, pose.position(), goal_->target.position, options_.planner);
+  }
   if (!planned.found()) {
     finish(out, exec::ExecState::Failed, toString(planned.failure));
     return false;

@@ -121,6 +121,7 @@ class Navigator {
   NavState state_ = NavState::Idle;
   std::optional<Goal> goal_;
   int replans_ = 0;
+  bool marksForgotten_ = false;  // this goal's sensed obstacles were forgotten once
   bool bumper_ = false;
   bool push_ = false;
   std::vector<double> sonar_;

@@ -58,6 +58,29 @@ struct NetworkStats {
   std::uint64_t framesIn = 0, framesOut = 0, malformedFrames = 0, garbagePeersDisconnected = 0,
                 foreignEcologyRejected = 0, unroutable = 0, coalesced = 0, idCollisions = 0,
                 malformedBeacons = 0, beaconsSuppressed = 0, slowPeersDisconnected = 0;
+  // Limits hit (Options::limits, docs/security.md): connections closed at
+  // the handshake deadline, connections refused over a cap, route entries
+  // over --peis-max-routes, frames over the held limit.
+  std::uint64_t handshakeTimeouts = 0, connectionsRefused = 0, routesRefused = 0,
+                heldFramesDropped = 0;
+  // Secured ecologies: links refused at the handshake (unauthenticated,
+  // wrongly keyed, replayed, open and secured mixed; each logged with its
+  // reason), and routes, identities or relayed frames that no PEIS proved
+  // it was entitled to (dropped).
+  std::uint64_t authRefused = 0, unentitled = 0;
+  // Of framesOut: the frames a writing thread sent to its link itself (a
+  // direct send, docs/architecture.md), sealed on a secured link.
+  std::uint64_t directFramesOut = 0;
+};
+
+// Writes this PEIS refused as the owner (docs/security.md): over a remote
+// writer's quota (Options::limits), to a kernel.* tuple only the kernel
+// writes, or (secured ecologies) what its policy denies, subscriptions
+// included. Also published as the kernel.denied tuple.
+struct AccessStats {
+  std::uint64_t quotaRefused = 0, kernelTupleRefused = 0;
+  // Secured ecologies: writes and subscriptions the policy denied.
+  std::uint64_t policyDenied = 0;
 };
 
 // The special tuples every PEIS publishes under "kernel.".
@@ -74,6 +97,8 @@ inline constexpr const char* kDoQuit = "kernel.do-quit";
 inline constexpr const char* kPeers = "kernel.peers";
 inline constexpr const char* kPort = "kernel.port";
 inline constexpr const char* kStarted = "kernel.started";
+inline constexpr const char* kDenied = "kernel.denied";
+inline constexpr const char* kPolicy = "kernel.policy";  // secured ecologies
 }  // namespace special
 
 const char* versionString();
@@ -156,10 +181,18 @@ class Kernel {
   // The TCP port this PEIS listens on (0 without network).
   std::uint16_t port() const;
   NetworkStats networkStats() const;
+  AccessStats accessStats() const;
 
   // --- callbacks ----------------------------------------------------------------
   CallbackHandle onChange(const Pattern& pattern, TupleCallback fn);
   CallbackHandle onDelete(const Pattern& pattern, TupleCallback fn);
+  // onChange that also starts with every matching tuple held now (each
+  // once, as a change, before any later change): no value is missed
+  // however the callback and the tuples' arrival interleave. onChange alone
+  // fires only on a change: a value already cached (by an earlier
+  // subscription, or brought again with the same seqno after its owner was
+  // unreachable for a while) never reaches a callback registered after it.
+  CallbackHandle onValue(const Pattern& pattern, TupleCallback fn);
   // After this returns the callback is not started again.
   bool removeCallback(CallbackHandle handle);
 

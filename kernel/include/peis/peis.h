@@ -3,6 +3,7 @@
 // <peis/component.h>.
 #pragma once
 
+#include "peis/credentials.h"
 #include "peis/error.h"
 #include "peis/kernel.h"
 #include "peis/key.h"

@@ -18,7 +18,7 @@ std::string encodeBeacon(const Beacon& b) {
   put(static_cast<std::uint32_t>(b.id), 4);
   put(b.incarnation, 8);
   put(b.port, 2);
-  put((b.wantsAnswer ? 1 : 0) | (b.tool ? 2 : 0), 1);
+  put((b.wantsAnswer ? 1 : 0) | (b.tool ? 2 : 0) | (b.secured ? 4 : 0), 1);
   return out;
 }
 
@@ -44,13 +44,14 @@ std::optional<Beacon> decodeBeacon(std::string_view in) {
   b.incarnation = get(8);
   b.port = static_cast<std::uint16_t>(get(2));
   const auto flags = get(1);
-  if (!ok || pos != in.size() || !isValidPeisId(id) || b.port == 0 || flags > 3 ||
+  if (!ok || pos != in.size() || !isValidPeisId(id) || b.port == 0 || flags > 7 ||
       b.ecology.empty()) {
     return std::nullopt;
   }
   b.id = id;
   b.wantsAnswer = (flags & 1) != 0;
   b.tool = (flags & 2) != 0;
+  b.secured = (flags & 4) != 0;
   return b;
 }
 

@@ -3,7 +3,7 @@
 //
 //   u32 magic "PEIB" | u16 version | str8 ecology | i32 id | u64 incarnation |
 //   u16 tcp port | u8 flags (bit 0: please answer with a unicast beacon;
-//   bit 1: the sender is a tool PEIS)
+//   bit 1: the sender is a tool PEIS; bit 2: it is of a secured ecology)
 #pragma once
 
 #include <cstdint>
@@ -24,6 +24,7 @@ struct Beacon {
   std::uint16_t port = 0;
   bool wantsAnswer = false;
   bool tool = false;
+  bool secured = false;  // a secured ecology's PEIS (docs/security.md)
   bool operator==(const Beacon&) const = default;
 };
 

@@ -23,6 +23,14 @@ struct Counters {
   std::uint64_t malformedBeacons = 0;
   std::uint64_t beaconsSuppressed = 0;      // periodic beacons skipped (docs/protocol.md §6)
   std::uint64_t slowPeersDisconnected = 0;  // links closed for reading too slowly (§13)
+  // Limits against misbehaving peers (docs/security.md, "Limits"):
+  std::uint64_t handshakeTimeouts = 0;   // connections closed at the handshake deadline
+  std::uint64_t connectionsRefused = 0;  // accepted connections over a connection cap
+  std::uint64_t routesRefused = 0;       // route entries over --peis-max-routes
+  std::uint64_t heldFramesDropped = 0;   // frames over the held limit (also unroutable)
+  // Secured ecologies (docs/security.md):
+  std::uint64_t authRefused = 0;  // links refused at the handshake (with the reason logged)
+  std::uint64_t unentitled = 0;   // routes, identities, relayed frames no PEIS proved
 };
 
 }  // namespace peis::net

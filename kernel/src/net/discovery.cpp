@@ -173,7 +173,8 @@ void Discovery::membershipChanged(SteadyClock::time_point now) {
 }
 
 void Discovery::send(const udp::endpoint& to, bool wantsAnswer) {
-  Beacon beacon{config_.ecology, self_, incarnation_, tcpPort_, wantsAnswer, config_.tool};
+  Beacon beacon{config_.ecology, self_,        incarnation_,   tcpPort_,
+                wantsAnswer,     config_.tool, config_.secured};
   auto payload = std::make_shared<std::string>(encodeBeacon(beacon));
   udp_.async_send_to(asio::buffer(*payload), to,
                      [payload](const boost::system::error_code&, std::size_t) {});
@@ -196,7 +197,8 @@ void Discovery::receive() {
 }
 
 void Discovery::onBeacon(const Beacon& beacon, const udp::endpoint& from) {
-  if (beacon.ecology != config_.ecology) return;
+  // Another ecology, or an open and a secured one of one name: never linked.
+  if (beacon.ecology != config_.ecology || beacon.secured != config_.secured) return;
   if (beacon.id == self_) {
     if (beacon.incarnation != incarnation_) {
       ++counters_.idCollisions;

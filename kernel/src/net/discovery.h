@@ -34,7 +34,8 @@ class Discovery {
     DiscoveryScope scope = DiscoveryScope::Lan;
     std::uint16_t port = 7700;  // UDP port of the beacons
     std::chrono::milliseconds beaconPeriod{1000};
-    bool tool = false;  // this PEIS is a tool (its beacons say so)
+    bool tool = false;     // this PEIS is a tool (its beacons say so)
+    bool secured = false;  // of a secured ecology (its beacons say so)
   };
   struct Peer {
     boost::asio::ip::address address;

@@ -10,7 +10,8 @@ HelloVerdict judgeHello(const HelloContext& c, const wire::Hello& hello) {
   if (hello.id == c.self) {
     if (hello.incarnation == c.incarnation) return HelloVerdict::Myself;
     // The PEIS with the smaller incarnation (started earlier) keeps the id.
-    return c.incarnation < hello.incarnation ? HelloVerdict::IdMine : HelloVerdict::IdTheirs;
+    if (c.incarnation < hello.incarnation) return HelloVerdict::IdMine;
+    return c.mayGiveUpId ? HelloVerdict::IdTheirs : HelloVerdict::IdKept;
   }
   if (c.existing) {
     if (c.existing->incarnation != hello.incarnation) return HelloVerdict::OtherIncarnationLinked;

@@ -18,6 +18,7 @@ enum class HelloVerdict {
   Myself,                  // dialled itself: close
   IdMine,                  // the same id, started later: send IdTaken, close after it
   IdTheirs,                // the same id, started earlier: close and re-pick ours
+  IdKept,                  // the same id, "started earlier", but ours is kept: IdTaken, close
   OtherIncarnationLinked,  // already linked to that id with another incarnation: close
   Duplicate,               // a second link to that PEIS that loses: close
   ReplacesExisting,        // a second link that wins: close the other, establish
@@ -34,6 +35,11 @@ struct HelloContext {
   // dialled that link.
   const wire::Hello* existing = nullptr;
   bool existingOutbound = false;
+  // Whether this PEIS still gives its id up to a PEIS that claims it and
+  // says it started earlier: only in its first moments in the ecology
+  // (Limits::idClaimWindow), when a real earlier holder is found; later
+  // such a claim is refused, as an attacker's would be (docs/security.md).
+  bool mayGiveUpId = true;
 };
 
 HelloVerdict judgeHello(const HelloContext& context, const wire::Hello& hello);

@@ -11,6 +11,8 @@
 #include <cstring>
 
 #include "net/counters.h"
+#include "net/link_security.h"
+#include "security/record_cipher.h"
 
 namespace peis::net {
 namespace asio = boost::asio;
@@ -27,7 +29,12 @@ constexpr std::size_t kMaxReadRoom = 32 * 1024;
 // gradually while a slow reader catches up.
 constexpr std::size_t kWriteChunk = 256 * 1024;
 constexpr std::size_t kFirstChunkBytes = 4 * 1024;  // a new write chunk's first memory
-constexpr std::size_t kGatherChunks = 16;           // chunks per gathered write, at most
+// After this many reads in a row smaller than kFirstReadRoom, with nothing
+// left over, the link is idle (pings, a round trip now and then): its read
+// buffer and spare write chunk go back to their first sizes, so the links of
+// a join (full route adverts fill 32 KiB reads) do not keep that memory.
+constexpr int kIdleReads = 8;
+constexpr std::size_t kGatherChunks = 16;  // chunks per gathered write, at most
 constexpr std::size_t kGatherBytes = 1024 * 1024;
 
 std::string endpointText(const tcp::endpoint& e) {
@@ -49,14 +56,24 @@ Link::Link(LinkHandler& handler, Counters& counters, std::size_t maxFrameBytes, 
   socket_.set_option(tcp::no_delay(true), ec);
   const auto remote = socket_.remote_endpoint(ec);
   remote_ = ec ? std::string("?") : endpointText(remote);
-  lastHeard_ = SteadyClock::now();
+  remoteAddress_ = ec ? std::string("?") : remote.address().to_string();
+  openedAt_ = lastHeard_ = SteadyClock::now();
 }
+
+Link::~Link() = default;
 
 void Link::start(const wire::Hello& hello) {
   std::string frame;
   wire::encode(wire::LinkMessage{hello}, frame);
+  ownHello_ = frame.substr(wire::kFrameHeaderBytes);
   sendFrame(frame);
   read();
+}
+
+void Link::secure(std::unique_ptr<security::RecordCipher> cipher) {
+  MutexLock lock(writeMu_);  // a direct sender reads cipher_ under it
+  cipher_ = std::move(cipher);
+  securing_ = true;
 }
 
 void Link::sendFrame(std::string_view frame) {
@@ -108,7 +125,9 @@ std::size_t Link::sendNow(std::string_view bytes, const std::shared_ptr<const Tu
   const std::string_view data = tail ? std::string_view(tail->data) : std::string_view();
   const std::size_t size = bytes.size() + data.size();
   counters_.directFramesOut.fetch_add(frames, std::memory_order_relaxed);
+  writtenSinceIdle_ += size;
   std::size_t sent = 0;
+  if (!writing_ && chunks_.empty() && cipher_) return sendSealedNow(bytes, data);
   if (!writing_ && chunks_.empty()) {
     // Idle: straight to the socket, from this thread (no hand-off to the
     // kernel thread, no wake-up of it). Never blocks.
@@ -137,6 +156,33 @@ std::size_t Link::sendNow(std::string_view bytes, const std::shared_ptr<const Tu
   }
   queued_ += size - sent;
   return sent;
+}
+
+// A secured link, idle: the frames sealed into records (sealed_ is free:
+// no write is under way), and written as sendNow does. If the socket takes
+// only part, the rest of the records waits as a sealed chunk, written
+// before anything queued after it (and sealed after it): the records'
+// numbers stay in the order they go out.
+std::size_t Link::sendSealedNow(std::string_view bytes, std::string_view data) {
+  using security::RecordCipher;
+  sealRoom(RecordCipher::sealedBytes(bytes.size()) +
+           (data.empty() ? 0 : RecordCipher::sealedBytes(data.size())));
+  sealedBytes_ = cipher_->seal(bytes, sealed_.data());
+  if (!data.empty()) sealedBytes_ += cipher_->seal(data, sealed_.data() + sealedBytes_);
+  const auto n =
+      ::send(socket_.native_handle(), sealed_.data(), sealedBytes_, MSG_DONTWAIT | MSG_NOSIGNAL);
+  lastSent_ = SteadyClock::now();
+  // An error is left to the kernel thread's write, which closes the link.
+  const std::size_t sent = n > 0 ? static_cast<std::size_t>(n) : 0;
+  if (sent == sealedBytes_) return bytes.size() + data.size();
+  auto& rest = chunks_.emplace_back();
+  rest.bytes.assign(sealed_.data() + sent, sealedBytes_ - sent);
+  rest.sealed = true;
+  queued_ += rest.bytes.size();
+  writing_ = true;
+  writingSince_ = lastSent_;
+  boost::asio::post(socket_.get_executor(), [self = shared_from_this()] { self->resumeWrite(); });
+  return 0;
 }
 
 void Link::resumeWrite() {
@@ -185,13 +231,15 @@ bool Link::bytesWaiting() {
 // full or ends in a tuple's data. A chunk starts small (an idle link's
 // pings cost little memory) and doubles while a stream fills it.
 std::string& Link::appendable(std::size_t bytes) {
-  if (chunks_.empty() || chunks_.back().tail || chunks_.back().bytes.size() >= kWriteChunk) {
+  if (chunks_.empty() || chunks_.back().tail || chunks_.back().sealed ||
+      chunks_.back().bytes.size() >= kWriteChunk) {
     chunks_.emplace_back().bytes = std::move(spareChunk_);
     spareChunk_ = std::string();
   }
   auto& chunk = chunks_.back().bytes;
   if (chunk.capacity() < chunk.size() + bytes) {
     chunk.reserve(std::max({chunk.size() + bytes, 2 * chunk.capacity(), kFirstChunkBytes}));
+    if (chunk.capacity() > kFirstChunkBytes) idleWrites_ = false;  // a stream: keep its memory
   }
   return chunk;
 }
@@ -202,6 +250,7 @@ void Link::keepSpareChunk() {
   for (auto& chunk : outChunks_) {
     if (spareChunk_.capacity() >= kWriteChunk) return;
     if (chunk.bytes.capacity() > 2 * kWriteChunk) continue;
+    if (idleWrites_ && chunk.bytes.capacity() > kFirstChunkBytes) continue;
     chunk.bytes.clear();
     spareChunk_ = std::move(chunk.bytes);
   }
@@ -221,10 +270,15 @@ void Link::write() {
   if (outChunks_.empty()) return;
   queued_ -= bytes;
   inFlight_ = bytes;
+  writtenSinceIdle_ += bytes;
   outBuffers_.clear();
-  for (const auto& chunk : outChunks_) {
-    outBuffers_.emplace_back(asio::buffer(chunk.bytes));
-    if (chunk.tail) outBuffers_.emplace_back(asio::buffer(chunk.tail->data));
+  if (cipher_) {
+    sealChunks();
+  } else {
+    for (const auto& chunk : outChunks_) {
+      outBuffers_.emplace_back(asio::buffer(chunk.bytes));
+      if (chunk.tail) outBuffers_.emplace_back(asio::buffer(chunk.tail->data));
+    }
   }
   writing_ = true;
   writingSince_ = lastSent_ = SteadyClock::now();  // what is queued goes out now
@@ -250,36 +304,114 @@ void Link::write() {
                     });
 }
 
+// A secured link writes the chunks as records (the link-level cipher
+// layer, security/record_cipher.h), each piece sealed from where it is
+// (a chunk's frames, a big tuple's data) straight into the records.
+void Link::sealChunks() {
+  using security::RecordCipher;
+  std::size_t room = 0;
+  for (const auto& chunk : outChunks_) {
+    room += chunk.sealed ? chunk.bytes.size() : RecordCipher::sealedBytes(chunk.bytes.size());
+    if (chunk.tail) room += RecordCipher::sealedBytes(chunk.tail->data.size());
+  }
+  sealRoom(room);
+  sealedBytes_ = 0;
+  for (const auto& chunk : outChunks_) {
+    char* at = sealed_.data() + sealedBytes_;
+    if (chunk.sealed) {
+      std::memcpy(at, chunk.bytes.data(), chunk.bytes.size());
+      sealedBytes_ += chunk.bytes.size();
+      continue;
+    }
+    if (!chunk.bytes.empty()) sealedBytes_ += cipher_->seal(chunk.bytes, at);
+    if (chunk.tail && !chunk.tail->data.empty()) {
+      sealedBytes_ += cipher_->seal(chunk.tail->data, sealed_.data() + sealedBytes_);
+    }
+  }
+  outBuffers_.emplace_back(asio::buffer(sealed_.data(), sealedBytes_));
+}
+
+// Room for `bytes` of records in sealed_, which only grows (its bytes are
+// written once, by the sealing: no zero-filling pass per write); a huge
+// buffer (after a huge value) is let go first.
+void Link::sealRoom(std::size_t bytes) {
+  if (sealed_.size() > 4 * kGatherBytes && bytes <= kGatherBytes) sealed_ = std::string();
+  if (sealed_.size() < bytes) sealed_.resize(std::max(bytes, 2 * sealed_.size()));
+}
+
 // The socket reads straight into in_ (no intermediate buffer): the bytes
-// [inPos_, inEnd_) are received and not parsed yet.
+// [inPos_, inEnd_) are received and not parsed yet. A secured link reads
+// into its record buffer instead and opens the records into in_.
 void Link::read() {
   if (closed_) return;
-  makeReadRoom();
+  if (cipher_) {
+    makeRecordRoom();
+    return socket_.async_read_some(
+        asio::buffer(records_.get() + recordsEnd_, recordsCapacity_ - recordsEnd_),
+        [self = shared_from_this()](const boost::system::error_code& ec, std::size_t n) {
+          if (ec) return self->close(ec == asio::error::eof ? "closed by peer" : ec.message());
+          self->lastHeard_ = SteadyClock::now();
+          if (n == self->recordsCapacity_ - self->recordsEnd_ && self->established_) {
+            self->readRoom_ = std::min(2 * self->readRoom_, kMaxReadRoom);
+          }
+          self->recordsEnd_ += n;
+          if (!self->openRecords()) return;
+          self->parse();
+          self->handler_.onReadDone(*self);
+          self->read();
+        });
+  }
+  makeReadRoom(readRoom_);
   socket_.async_read_some(
       asio::buffer(in_.get() + inEnd_, inCapacity_ - inEnd_),
       [self = shared_from_this()](const boost::system::error_code& ec, std::size_t n) {
         if (ec) return self->close(ec == asio::error::eof ? "closed by peer" : ec.message());
         self->lastHeard_ = SteadyClock::now();
-        if (n == self->inCapacity_ - self->inEnd_) {  // filled: more is likely waiting
+        // Filled: more is likely waiting (a link in its handshake keeps
+        // the first, small buffer).
+        if (n == self->inCapacity_ - self->inEnd_ && self->established_) {
           self->readRoom_ = std::min(2 * self->readRoom_, kMaxReadRoom);
         }
         self->inEnd_ += n;
         self->parse();
         self->handler_.onReadDone(*self);
+        self->shrinkIfIdle(n);
         self->read();
       });
 }
 
-// Room after inEnd_ for readRoom_ bytes, or for the rest of a frame whose
-// length is known to be bigger, so a big frame arrives in place.
-void Link::makeReadRoom() {
+void Link::shrinkIfIdle(std::size_t readBytes) {
+  if (readBytes >= kFirstReadRoom) {
+    smallReads_ = 0;
+    return;
+  }
+  if (++smallReads_ < kIdleReads || inPos_ != inEnd_ || closed_) return;
+  smallReads_ = 0;
+  readRoom_ = kFirstReadRoom;
+  if (inCapacity_ > kFirstReadRoom) {
+    in_.reset();
+    inCapacity_ = 0;
+  }
+  // The write side is idle too only if little was written meanwhile (a
+  // stream's writer reads little: only pings and answers).
+  MutexLock lock(writeMu_);
+  const bool writesIdle = writtenSinceIdle_ <= kFirstChunkBytes * kIdleReads;
+  writtenSinceIdle_ = 0;
+  if (!writesIdle) return;
+  if (spareChunk_.capacity() > kFirstChunkBytes) spareChunk_ = std::string();
+  idleWrites_ = true;  // a big chunk being written (a pong) is let go too
+}
+
+// Room after inEnd_ for `want` bytes (a read's, or an opened record's), or
+// for the rest of a frame whose length is known to be bigger, so a big
+// frame arrives in place.
+void Link::makeReadRoom(std::size_t want) {
   const std::size_t pending = inEnd_ - inPos_;
-  std::size_t want = readRoom_;
   if (pending >= wire::kFrameHeaderBytes) {
     const auto frame =
         wire::kFrameHeaderBytes + wire::frameLength(std::string_view(in_.get() + inPos_, 4));
     // (parse() has closed the link on an impossible length already)
-    if (frame > pending && frame <= maxFrameBytes_ + wire::kFrameHeaderBytes) {
+    if (frame > pending && frame <= frameLimit() + wire::kFrameHeaderBytes) {
       want = std::max(want, frame - pending);
     }
   }
@@ -299,6 +431,60 @@ void Link::makeReadRoom() {
   }
 }
 
+// Room after recordsEnd_ for a read: the rest of the record under way, at
+// least readRoom_. A record is at most kMaxPlainBytes + its overhead
+// (before the handshake ends, kMaxHandshakeFrameBytes + it).
+void Link::makeRecordRoom() {
+  const auto pending = recordsEnd_ - recordsPos_;
+  const auto whole = security::RecordCipher::recordLength(records_.get() + recordsPos_, pending);
+  const auto want = std::max(readRoom_, whole > pending ? whole - pending : 0);
+  if (recordsCapacity_ - recordsEnd_ >= want) return;
+  if (recordsPos_ > 0) {
+    std::memmove(records_.get(), records_.get() + recordsPos_, pending);
+    recordsPos_ = 0;
+    recordsEnd_ = pending;
+  }
+  if (recordsCapacity_ - recordsEnd_ < want) {
+    std::unique_ptr<char[]> bigger(new char[recordsEnd_ + want]);
+    if (recordsEnd_ > 0) std::memcpy(bigger.get(), records_.get(), recordsEnd_);
+    records_ = std::move(bigger);
+    recordsCapacity_ = recordsEnd_ + want;
+  }
+}
+
+// Opens every whole record among those read, into in_ (out of place: one
+// pass over the bytes).
+bool Link::openRecords() {
+  while (recordsPos_ < recordsEnd_) {
+    const auto available = recordsEnd_ - recordsPos_;
+    const auto whole =
+        security::RecordCipher::recordLength(records_.get() + recordsPos_, available);
+    if (whole != 0 && whole <= available && whole > security::RecordCipher::kOverheadBytes) {
+      makeReadRoom(security::RecordCipher::plainLength(whole));
+    }
+    std::size_t record = 0, plain = 0;
+    std::string error;
+    const auto most =
+        established_ ? security::RecordCipher::kMaxPlainBytes : wire::kMaxHandshakeFrameBytes;
+    switch (cipher_->open(records_.get() + recordsPos_, available, most, in_.get() + inEnd_, record,
+                          plain, error)) {
+      case security::RecordCipher::Open::NeedMore:
+        return true;
+      case security::RecordCipher::Open::Bad:
+        ++counters_.malformedFrames;
+        ++counters_.garbagePeersDisconnected;
+        close("bad record: " + error);
+        return false;
+      case security::RecordCipher::Open::Opened:
+        inEnd_ += plain;
+        recordsPos_ += record;
+        break;
+    }
+  }
+  recordsPos_ = recordsEnd_ = 0;
+  return true;
+}
+
 void Link::parse() {
   while (!closed_) {
     const std::size_t available = inEnd_ - inPos_;
@@ -311,7 +497,7 @@ void Link::parse() {
     }
     if (available < wire::kFrameHeaderBytes) break;
     const auto length = wire::frameLength(std::string_view(in_.get() + inPos_, available));
-    if (length > maxFrameBytes_ && length <= wire::kLargestFrameBytes) {
+    if (established_ && length > maxFrameBytes_ && length <= wire::kLargestFrameBytes) {
       // Over this PEIS's limit, not the protocol's: answer it from its head.
       const auto head = std::min<std::size_t>(length, wire::kOversizeHeadBytes);
       if (available < wire::kFrameHeaderBytes + head) break;
@@ -320,15 +506,29 @@ void Link::parse() {
       skip_ = length - head;
       if (handler_.onOversize(*this, frame)) continue;
     }
-    if (length == 0 || length > maxFrameBytes_) {
+    if (length == 0 || length > frameLimit()) {
       ++counters_.malformedFrames;
       ++counters_.garbagePeersDisconnected;
-      return close("frame length " + std::to_string(length) + " is impossible: garbage");
+      return close("frame length " + std::to_string(length) +
+                   (length == 0 ? " is impossible: garbage"
+                                : " is over the " + std::to_string(frameLimit()) + " bytes taken" +
+                                      (established_ ? "" : " before the handshake")));
     }
     if (available < wire::kFrameHeaderBytes + length) break;
     const auto frame = std::string_view(in_.get() + inPos_ + wire::kFrameHeaderBytes, length);
     inPos_ += wire::kFrameHeaderBytes + length;
     handler_.onFrame(*this, frame);
+    if (securing_) {  // what follows the peer's Hello is records
+      securing_ = false;
+      const auto rest = inEnd_ - inPos_;
+      records_.reset(new char[std::max(rest, readRoom_)]);
+      recordsCapacity_ = std::max(rest, readRoom_);
+      if (rest > 0) std::memcpy(records_.get(), in_.get() + inPos_, rest);
+      recordsPos_ = 0;
+      recordsEnd_ = rest;
+      inEnd_ = inPos_;
+      if (!openRecords()) return;
+    }
   }
   if (inPos_ == inEnd_) {
     inPos_ = inEnd_ = 0;

@@ -23,9 +23,14 @@
 #include "adaptive_mutex.h"
 #include "net/wire.h"
 
+namespace peis::security {
+class RecordCipher;
+}
+
 namespace peis::net {
 
 struct Counters;
+struct LinkSecurity;
 class Link;
 
 // What a Link reports to its owner.
@@ -53,11 +58,13 @@ class Link : public std::enable_shared_from_this<Link> {
  public:
   using SteadyClock = std::chrono::steady_clock;
 
-  // `maxFrameBytes`: the largest frame length accepted (a bigger one is a
-  // framing error: the link closes). `explicitIndex`: the --peis-connect
-  // entry it serves, or -1.
+  // `maxFrameBytes`: the largest frame length accepted once the handshake
+  // is complete (a bigger one is a framing error: the link closes); until
+  // then it is wire::kMaxHandshakeFrameBytes. `explicitIndex`: the
+  // --peis-connect entry it serves, or -1.
   Link(LinkHandler& handler, Counters& counters, std::size_t maxFrameBytes,
        boost::asio::ip::tcp::socket socket, bool outbound, int explicitIndex);
+  ~Link();
 
   // Sends our Hello and starts reading.
   void start(const wire::Hello& hello);
@@ -70,6 +77,16 @@ class Link : public std::enable_shared_from_this<Link> {
   // Queues `frames` whole frames encoded elsewhere (copied).
   void sendBytes(std::string_view bytes, std::uint32_t frames);
   void close(const std::string& reason);
+  // The handshake is complete: frames up to maxFrameBytes are taken now.
+  void establish() { established_ = true; }
+  // Secured links (docs/protocol.md §15.5): from now on, everything written
+  // goes out as `cipher`'s records, and everything read after the frame
+  // being handled (the peer's Hello) is taken as its records. Only from
+  // the LinkHandler's onFrame.
+  void secure(std::unique_ptr<security::RecordCipher> cipher);
+  bool secured() const { return cipher_ != nullptr; }
+  // Our Hello's bytes after the length field (a secured handshake signs them).
+  const std::string& ownHello() const { return ownHello_; }
   // Sends what is queued, then closes.
   void closeAfterFlush(const std::string& reason);
 
@@ -85,7 +102,10 @@ class Link : public std::enable_shared_from_this<Link> {
   // once when nothing else is queued or being written (the rest, if the
   // socket takes only part, is written by the kernel thread), else queued
   // behind what is. Dropped when the link has closed. Returns the bytes
-  // written at once.
+  // written at once (a secured link: all of them, or 0 when the socket took
+  // only part of the records).
+  // On a secured link the frames are sealed into records first, here,
+  // under the write lock (as the kernel thread's writes are).
   std::size_t sendNow(std::string_view bytes, const std::shared_ptr<const Tuple>& tail,
                       std::uint32_t frames) REQUIRES(writeMu_);
 
@@ -100,8 +120,14 @@ class Link : public std::enable_shared_from_this<Link> {
   // host lives and takes our bytes, though its process may be slow).
   bool peerAcknowledgesAll();
   // Part of a frame has arrived and the rest has not (a big frame in transit).
-  bool midFrame() const { return inEnd_ > inPos_ || skip_ > 0; }
+  bool midFrame() const { return inEnd_ > inPos_ || skip_ > 0 || recordsEnd_ > recordsPos_; }
   bool closed() const { return closed_; }
+  // The memory of the read buffer and of the spare write chunk (an idle
+  // link's is small: shrinkIfIdle).
+  std::size_t bufferBytes() const {
+    MutexLock lock(writeMu_);
+    return inCapacity_ + spareChunk_.capacity();
+  }
   // How long the write under way has been waiting for the peer to take it
   // (zero when none is).
   SteadyClock::duration writeWaiting(SteadyClock::time_point now) const {
@@ -117,7 +143,9 @@ class Link : public std::enable_shared_from_this<Link> {
   // --- State the Network keeps about the link --------------------------------
   const bool outbound_;
   const int explicitIndex_;
-  std::string remote_;  // address:port
+  std::string remote_;                // address:port
+  std::string remoteAddress_;         // the address alone (connection caps count per address)
+  SteadyClock::time_point openedAt_;  // the handshake deadline counts from here
   bool established_ = false;
   wire::Hello peer_;  // the peer's Hello, once established_
   SteadyClock::time_point lastHeard_;
@@ -129,8 +157,11 @@ class Link : public std::enable_shared_from_this<Link> {
   std::uint64_t checkedEpoch_ = 0;
   PeisId dialTarget_ = 0;  // the beacon peer this link was dialled for
   // Found congested by the Network (its backlog over the high-water mark);
-  // cleared when it drains to half. Read by takesDirect() on any thread.
+  // cleared when it drains to half. Read by lockForDirect() on any thread.
   std::atomic<bool> congested_{false};
+  // What the Network keeps of a secured link (net/link_security.h); null in
+  // an open ecology.
+  std::unique_ptr<LinkSecurity> security_;
 
  private:
   // Frames waiting to be written: bytes, then (when set) a tuple's data,
@@ -138,16 +169,31 @@ class Link : public std::enable_shared_from_this<Link> {
   struct Chunk {
     std::string bytes;
     std::shared_ptr<const Tuple> tail;
+    // A secured link's records already sealed (the rest of a direct send
+    // the socket took only part of): written as they are.
+    bool sealed = false;
     std::size_t size() const { return bytes.size() + (tail ? tail->data.size() : 0); }
   };
   std::string& appendable(std::size_t bytes) REQUIRES(writeMu_);
   void keepSpareChunk() REQUIRES(writeMu_);
   void write() REQUIRES(writeMu_);
+  void sealChunks() REQUIRES(writeMu_);
+  void sealRoom(std::size_t bytes) REQUIRES(writeMu_);
+  // sendNow on an idle secured link: seals and writes at once.
+  std::size_t sendSealedNow(std::string_view bytes, std::string_view data) REQUIRES(writeMu_);
   // Starts the write that a direct send left to this thread.
   void resumeWrite() EXCLUDES(writeMu_);
   void read();
-  void makeReadRoom();
+  // Back to small buffers once reads have been small for a while.
+  void shrinkIfIdle(std::size_t readBytes);
+  void makeReadRoom(std::size_t want);
+  void makeRecordRoom();
   void parse();
+  // Opens the whole records among the bytes read; false if the link closed.
+  bool openRecords();
+  std::size_t frameLimit() const {
+    return established_ ? maxFrameBytes_ : wire::kMaxHandshakeFrameBytes;
+  }
 
   LinkHandler& handler_;
   Counters& counters_;
@@ -158,12 +204,28 @@ class Link : public std::enable_shared_from_this<Link> {
   std::size_t inCapacity_ = 0;
   std::size_t readRoom_;
   std::size_t inPos_ = 0, inEnd_ = 0;
+  // A secured link: the records read and not opened yet, [recordsPos_,
+  // recordsEnd_) of records_; their plaintext goes to in_. cipher_ is set
+  // by the kernel thread under writeMu_ (secure()), so a direct sender
+  // reads it under writeMu_; its sealing side is used under writeMu_ only,
+  // its opening side by the kernel thread only (RecordCipher keeps the two
+  // apart).
+  std::unique_ptr<security::RecordCipher> cipher_;
+  std::unique_ptr<char[]> records_;
+  std::size_t recordsCapacity_ = 0, recordsPos_ = 0, recordsEnd_ = 0;
+  bool securing_ = false;  // secure() was called from the frame being handled
+  std::string ownHello_;
   std::size_t skip_ = 0;  // bytes of an oversized frame still to be skipped
+  int smallReads_ = 0;    // reads in a row smaller than the first read room
   // --- The write side: the kernel thread and direct senders -----------------------
   mutable AdaptiveMutex writeMu_;
   bool writeClosed_ GUARDED_BY(writeMu_) = false;      // the socket is closed (or closing)
   std::vector<Chunk> outChunks_ GUARDED_BY(writeMu_);  // being written
   std::string spareChunk_ GUARDED_BY(writeMu_);        // a written chunk's memory, for the next
+  // The link is idle (shrinkIfIdle): a written chunk bigger than the first
+  // size is freed, not kept, until a chunk grows again.
+  bool idleWrites_ GUARDED_BY(writeMu_) = false;
+  std::size_t writtenSinceIdle_ GUARDED_BY(writeMu_) = 0;  // by write(), since the last check
   std::vector<boost::asio::const_buffer> outBuffers_ GUARDED_BY(writeMu_);
   std::size_t inFlight_ GUARDED_BY(writeMu_) = 0;
   std::deque<Chunk> chunks_ GUARDED_BY(writeMu_);
@@ -173,6 +235,10 @@ class Link : public std::enable_shared_from_this<Link> {
   SteadyClock::time_point writingSince_ GUARDED_BY(writeMu_);
   SteadyClock::time_point lastSent_ GUARDED_BY(writeMu_);  // the last write started
   std::string closeReason_ GUARDED_BY(writeMu_);
+  // A secured link: the records being written, sealed_'s first
+  // sealedBytes_ (its size is only the room it has).
+  std::string sealed_ GUARDED_BY(writeMu_);
+  std::size_t sealedBytes_ GUARDED_BY(writeMu_) = 0;
 };
 
 }  // namespace peis::net

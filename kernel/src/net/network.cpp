@@ -15,16 +15,22 @@
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <deque>
+#include <map>
 #include <set>
 
 #include "log.h"
 #include "net/handshake.h"
 #include "net/link.h"
 #include "net/link_policy.h"
+#include "net/link_security.h"
 #include "net/routing_table.h"
 #include "peis/error.h"
 #include "peis/key.h"
 #include "peis/options.h"
+#include "security/crypto.h"
+#include "security/identity.h"
+#include "security/record_cipher.h"
+#include "security/source_tag.h"
 
 namespace peis::net {
 namespace asio = boost::asio;
@@ -40,6 +46,7 @@ constexpr std::chrono::milliseconds kDialMaxDelay{1000};
 constexpr std::chrono::milliseconds kRecomputeDelay{20};  // recomputes at most every 20 ms
 constexpr std::chrono::seconds kHoldFor{3};  // how long a frame waits for its source's route
 constexpr std::size_t kMaxHeldFrames = 1024;
+constexpr std::chrono::seconds kLimitLogEvery{10};
 // How many liveness times a silent peer whose host still acknowledges our
 // bytes is given (see pingLoop).
 constexpr int kSlowPeerGrace = 4;
@@ -56,10 +63,11 @@ class Network::Impl final : public LinkHandler {
         incarnation_(incarnation),
         events_(std::move(events)),
         table_(tableConfig(config_, self, incarnation)),
-        discovery_(io,
-                   Discovery::Config{config_.ecology, config_.discovery, config_.discoveryPort,
-                                     config_.beaconPeriod, config_.tool},
-                   counters_, self, incarnation, discoveryEvents()),
+        discovery_(
+            io,
+            Discovery::Config{config_.ecology, config_.discovery, config_.discoveryPort,
+                              config_.beaconPeriod, config_.tool, config_.credentials != nullptr},
+            counters_, self, incarnation, discoveryEvents()),
         acceptor_(io),
         pingTimer_(io),
         redialTimer_(io),
@@ -67,7 +75,13 @@ class Network::Impl final : public LinkHandler {
         acceptRetry_(io),
         pruneTimer_(io),
         holdTimer_(io),
-        explicitLinks_(config_.connect.size()) {}
+        explicitLinks_(config_.connect.size()) {
+    if (const auto& credentials = config_.credentials) {
+      anchor_ = security::TrustAnchor{credentials->certificate.ecology, credentials->rootKey};
+      ownIdentity_ = security::makeIdentity(*credentials, self_, incarnation_, config_.name);
+      tags_ = std::make_unique<security::SourceTags>(*credentials);
+    }
+  }
 
   void start();
   void stop(std::function<void()> closed);
@@ -82,7 +96,12 @@ class Network::Impl final : public LinkHandler {
   bool reachable(PeisId id) const { return table_.contains(id); }
   std::shared_ptr<Link> linkTowards(PeisId destination) const {
     const PeisId next = table_.nextHop(destination);
-    return next == 0 ? nullptr : linkTo(next);
+    auto link = next == 0 ? nullptr : linkTo(next);
+    // On a secured link, our frames over relays go with their SourceTags
+    // (forward()), which a direct send does not make: only a neighbour's
+    // own link takes them.
+    if (link && link->security_ && next != destination) return nullptr;
+    return link;
   }
   std::size_t congestedAboveBytes() const { return config_.coalesceAboveBytes; }
   std::uint16_t listenPort() const {
@@ -103,8 +122,27 @@ class Network::Impl final : public LinkHandler {
 
   Counters counters_;
   PeisId self_;
+  const security::Identity* identityOf(PeisId id) const { return book_.find(id); }
+  std::size_t recheckIdentities();
 
  private:
+  // --- secured ecologies (docs/protocol.md §15)
+  bool secured() const { return config_.credentials != nullptr; }
+  // The peer's Hello on a secured link: keys, records, our Auth.
+  void onSecuredHello(Link& link, const wire::Hello& hello, std::string_view frame);
+  void onAuth(Link& link, const wire::Auth& auth);
+  void onIdentity(Link& link, const wire::Identity& identity);
+  // Refuses a peer at the handshake: closed, counted, logged with the reason.
+  void refuse(Link& link, const std::string& reason);
+  // The route entries a secured PEIS takes from `link`: those of PEIS whose
+  // identity (incarnation and name) it checked; the others are dropped.
+  void keepEntitled(Link& link, std::vector<wire::RouteEntry>& entries);
+  // Whether a frame relayed from `source` carries its source's tag.
+  bool tagHolds(PeisId source, const std::string& tag, std::string_view frame);
+  void sendTag(Link& link, std::string tag);
+  // Sends `routes` on `link`, the identities of its PEIS first (secured).
+  void sendRoutes(Link& link, const wire::Routes& routes);
+  void forgetIdentities();
   std::size_t maxFrameBytes() const { return config_.maxDataBytes + wire::kMaxFrameOverhead; }
   static RoutingTable::Config tableConfig(const NetworkConfig& config, PeisId self,
                                           std::uint64_t incarnation);
@@ -113,9 +151,16 @@ class Network::Impl final : public LinkHandler {
   void accept();
   void dial(const std::string& host, std::uint16_t port, int explicitIndex);
   void addLink(tcp::socket socket, bool outbound, int explicitIndex, PeisId dialTarget = 0);
-  void onHello(Link& link, const wire::Hello& hello);
+  void onHello(Link& link, const wire::Hello& hello, std::string_view frame);
+  // Judges a Hello (checked by an Auth in a secured ecology) and
+  // establishes the link, or closes it.
+  void establishOrClose(Link& link, const wire::Hello& hello);
   void onMalformed(Link& link, const std::string& error);
   void collision(std::uint64_t otherIncarnation);
+  bool mayGiveUpId() const {
+    if (secured() && config_.credentials->certificate.pinnedId == self_) return false;
+    return SteadyClock::now() - startedAt_ < config_.idClaimWindow;
+  }
   std::shared_ptr<Link> linkTo(PeisId peer) const;
   Link* findLink(PeisId peer) const;  // linkTo without the reference count
   wire::Hello hello() const;
@@ -135,10 +180,14 @@ class Network::Impl final : public LinkHandler {
   void advertise();
   // --- routed frames
   void onRouted(Link& link, std::string_view frame);
-  void deliverOrForward(std::string_view frame, wire::RoutedMessage&& message);
-  void forwardFrame(std::string_view frame, const wire::Envelope& envelope);
-  // `relayedFrom`: the source of a frame this PEIS relays (0: its own).
-  bool forward(PeisId destination, std::string frame, PeisId relayedFrom = 0);
+  void deliverOrForward(std::string_view frame, wire::RoutedMessage&& message, PeisId from,
+                        const std::string& tag);
+  void forwardFrame(std::string_view frame, const wire::Envelope& envelope,
+                    const std::string& tag = {});
+  // `relayedFrom`: the source of a frame this PEIS relays (0: its own);
+  // `tag`: its SourceTag, passed on with it.
+  bool forward(PeisId destination, std::string frame, PeisId relayedFrom = 0,
+               const std::string& tag = {});
   Link* nextHopLink(PeisId destination);  // counts unroutable when none
   void retryHeld();
   void flushInbox();
@@ -160,12 +209,21 @@ class Network::Impl final : public LinkHandler {
     SteadyClock::time_point last;
   };
   void throttle(Throttle& t, std::chrono::milliseconds interval, void (Impl::*work)());
+  // A limit was hit: counts it and logs it, at most once per kLimitLogEvery
+  // for each kind (a flood must not flood the log too).
+  void limitHit(std::uint64_t& counter, const std::string& kind, const std::string& message,
+                std::uint64_t count = 1);
+  // Whether a routed frame from `source` may arrive over `link` (the
+  // spoofing checks of docs/protocol.md §14).
+  bool sourceMayArriveOver(const Link& link, const wire::Envelope& envelope,
+                           SteadyClock::time_point now) const;
 
   asio::io_context& io_;
   NetworkConfig config_;
   std::uint64_t incarnation_;
   Events events_;
   bool stopped_ = false;
+  const SteadyClock::time_point startedAt_ = SteadyClock::now();
   RoutingTable table_;
   Discovery discovery_;
   tcp::acceptor acceptor_;
@@ -186,8 +244,16 @@ class Network::Impl final : public LinkHandler {
     std::string frame;
     wire::RoutedMessage message;
     SteadyClock::time_point arrived;
+    PeisId from = 0;  // the linked PEIS it came from
+    std::string tag;  // its SourceTag (secured ecologies)
   };
   std::deque<Held> held_;
+  std::size_t heldBytes_ = 0;  // of the frames in held_ (Limits::maxHeldBytes)
+  std::map<std::string, SteadyClock::time_point> limitLogged_;
+  security::TrustAnchor anchor_;
+  std::optional<security::Identity> ownIdentity_;
+  security::IdentityBook book_;
+  std::unique_ptr<security::SourceTags> tags_;
   // Answers to frames over the data limit (onOversize) for a PEIS with no
   // route yet (its first frames can be faster than its route, as above):
   // sent once it has one, dropped after kHoldFor.
@@ -211,6 +277,7 @@ RoutingTable::Config Network::Impl::tableConfig(const NetworkConfig& config, Pei
   // period for the destination's new seqno: a PEIS that is gone leaves
   // every table within one liveness period.
   c.holdFor = std::max(config.deadAfter / 2, std::chrono::milliseconds(50));
+  c.maxRoutes = config.maxRoutes;
   return c;
 }
 
@@ -285,7 +352,8 @@ wire::Hello Network::Impl::hello() const {
   h.incarnation = incarnation_;
   h.name = config_.name;
   h.listenPort = listenPort();
-  h.capabilities = wire::kCapabilityCoalescing | (config_.tool ? wire::kCapabilityTool : 0);
+  h.capabilities = wire::kCapabilityCoalescing | (config_.tool ? wire::kCapabilityTool : 0) |
+                   (secured() ? wire::kCapabilitySecured : 0);
   return h;
 }
 
@@ -299,7 +367,28 @@ void Network::Impl::accept() {
   acceptor_.async_accept([this](const boost::system::error_code& ec, tcp::socket socket) {
     if (stopped_) return;
     if (!ec) {
-      addLink(std::move(socket), false, -1);
+      boost::system::error_code e;
+      const auto remote = socket.remote_endpoint(e);
+      const auto address = e ? std::string("?") : remote.address().to_string();
+      std::size_t pendingFromHost = 0;
+      for (const auto& link : links_) {
+        if (!link->established_ && link->remoteAddress_ == address) ++pendingFromHost;
+      }
+      if (links_.size() >= config_.maxConnections) {
+        limitHit(counters_.connectionsRefused, "connections",
+                 "refused a connection from " + address + ": " +
+                     std::to_string(config_.maxConnections) +
+                     " connections are open (--peis-max-connections)");
+        socket.close(e);
+      } else if (pendingFromHost >= config_.maxHandshakesPerHost) {
+        limitHit(counters_.connectionsRefused, "handshakes-per-host",
+                 "refused a connection from " + address + ": " + std::to_string(pendingFromHost) +
+                     " of its connections are in their handshake "
+                     "(--peis-max-handshakes-per-host)");
+        socket.close(e);
+      } else {
+        addLink(std::move(socket), false, -1);
+      }
       return accept();
     }
     // Out of descriptors or similar: say so once in a while and retry later
@@ -335,12 +424,38 @@ void Network::Impl::dial(const std::string& host, std::uint16_t port, int explic
 
 void Network::Impl::addLink(tcp::socket socket, bool outbound, int explicitIndex,
                             PeisId dialTarget) {
+  if (outbound && links_.size() >= config_.maxConnections) {
+    if (dialTarget != 0) dialing_.erase(dialTarget);
+    limitHit(counters_.connectionsRefused, "connections",
+             "did not open a dialled link: " + std::to_string(config_.maxConnections) +
+                 " connections are open (--peis-max-connections)");
+    return;
+  }
   auto link = std::make_shared<Link>(*this, counters_, maxFrameBytes(), std::move(socket), outbound,
                                      explicitIndex);
   link->dialTarget_ = dialTarget;
   links_.push_back(link);
   if (explicitIndex >= 0) explicitLinks_[static_cast<std::size_t>(explicitIndex)] = link;
-  link->start(hello());
+  auto h = hello();
+  if (secured()) {
+    link->security_ = std::make_unique<LinkSecurity>();
+    link->security_->handshake =
+        std::make_unique<security::LinkHandshake>(*config_.credentials, outbound);
+    h.auth = link->security_->handshake->helloAuth();
+  }
+  link->start(h);
+  // The handshake's deadline: a connection that does not say who it is in
+  // time (or sends its Hello a byte at a time) is closed.
+  auto deadline = std::make_shared<asio::steady_timer>(io_, config_.handshakeTimeout);
+  deadline->async_wait([this, deadline,
+                        weak = std::weak_ptr<Link>(link)](const boost::system::error_code& ec) {
+    auto l = weak.lock();
+    if (ec || stopped_ || !l || l->closed() || l->established_) return;
+    limitHit(counters_.handshakeTimeouts, "handshake",
+             "closed " + l->remote_ + ": no handshake within " +
+                 std::to_string(config_.handshakeTimeout.count()) + " ms (--peis-handshake-ms)");
+    l->close("no handshake in time");
+  });
 }
 
 void Network::Impl::onClosed(Link& link, const std::string& reason) {
@@ -400,7 +515,8 @@ void Network::Impl::onFrame(Link& link, std::string_view frame) {
   auto result = wire::decode(frame, config_.maxDataBytes);
   if (!result.message) return onMalformed(link, result.error);
   auto& message = std::get<wire::LinkMessage>(*result.message);
-  if (auto* hello = std::get_if<wire::Hello>(&message)) return onHello(link, *hello);
+  if (auto* hello = std::get_if<wire::Hello>(&message)) return onHello(link, *hello, frame);
+  if (auto* auth = std::get_if<wire::Auth>(&message)) return onAuth(link, *auth);
   if (!link.established_) {
     ++counters_.garbagePeersDisconnected;
     return link.close("no handshake");
@@ -414,12 +530,21 @@ void Network::Impl::onFrame(Link& link, std::string_view frame) {
   } else if (auto* request = std::get_if<wire::SeqnoRequest>(&message)) {
     table_.onSeqnoRequest(link.peer_.id, *request, SteadyClock::now());
     afterTable();
-  } else if (auto* taken = std::get_if<wire::IdTaken>(&message)) {
-    if (taken->id == self_ && taken->incarnation == incarnation_) collision(0);
+  } else if (std::get_if<wire::IdTaken>(&message)) {
+    // A collision is decided by the Hellos, on the link that shows it,
+    // which both ends close; on an established link (whose peer holds
+    // another id) an IdTaken is made up.
+    onMalformed(link, "IdTaken on an established link");
+  } else if (auto* identity = std::get_if<wire::Identity>(&message)) {
+    onIdentity(link, *identity);
+  } else if (auto* tag = std::get_if<wire::SourceTag>(&message)) {
+    if (!link.security_) return onMalformed(link, "a SourceTag on an open link");
+    link.security_->pendingTag = std::move(tag->tag);
   }
 }
 
 bool Network::Impl::onOversize(Link& link, std::string_view head) {
+  if (link.security_) link.security_->pendingTag.clear();
   auto oversize = wire::decodeOversize(head, config_.maxDataBytes);
   if (!oversize || !link.established_) return false;
   auto answer = wire::answerOversize(*oversize, self_, config_.maxDataBytes);
@@ -433,9 +558,26 @@ bool Network::Impl::onOversize(Link& link, std::string_view head) {
   return true;
 }
 
-void Network::Impl::onHello(Link& link, const wire::Hello& hello) {
+void Network::Impl::onHello(Link& link, const wire::Hello& hello, std::string_view frame) {
+  if (!link.established_) {
+    const bool theirs = (hello.capabilities & wire::kCapabilitySecured) != 0;
+    if (theirs != secured() && hello.version == wire::kVersion &&
+        hello.ecology == config_.ecology) {
+      // A secured and an open ecology of one name never mix.
+      return refuse(link, secured() ? "an open PEIS (no credentials) may not join this secured "
+                                      "ecology"
+                                    : "it belongs to a secured ecology and this PEIS has no "
+                                      "credentials (--peis-credentials)");
+    }
+    if (secured()) return onSecuredHello(link, hello, frame);
+  }
+  establishOrClose(link, hello);
+}
+
+void Network::Impl::establishOrClose(Link& link, const wire::Hello& hello) {
   const auto existing = linkTo(hello.id);
   HelloContext context{self_, incarnation_, config_.ecology, link.established_, link.outbound_};
+  context.mayGiveUpId = mayGiveUpId();
   if (existing) {
     context.existing = &existing->peer_;
     context.existingOutbound = existing->outbound_;
@@ -456,6 +598,13 @@ void Network::Impl::onHello(Link& link, const wire::Hello& hello) {
       ++counters_.idCollisions;
       sendLinkMessage(link, wire::IdTaken{hello.id, hello.incarnation});
       return link.closeAfterFlush("id " + std::to_string(self_) + " is mine");
+    case HelloVerdict::IdKept:
+      ++counters_.idCollisions;
+      log::warn(self_, link.remote_ + " claims id " + std::to_string(self_) +
+                           " with an earlier start; keeping it (this PEIS has held it for " +
+                           "longer than the join window)");
+      sendLinkMessage(link, wire::IdTaken{hello.id, hello.incarnation});
+      return link.closeAfterFlush("id " + std::to_string(self_) + " is mine");
     case HelloVerdict::IdTheirs:
       ++counters_.idCollisions;
       link.close("id collision");
@@ -473,7 +622,7 @@ void Network::Impl::onHello(Link& link, const wire::Hello& hello) {
     case HelloVerdict::Establish:
       break;
   }
-  link.established_ = true;
+  link.establish();
   ++routesEpoch_;
   link.establishedAt_ = SteadyClock::now();
   if (link.explicitIndex_ < 0) schedulePrune();
@@ -487,17 +636,199 @@ void Network::Impl::onHello(Link& link, const wire::Hello& hello) {
   // with the next advert.
   if (link.closed()) return;
   auto all = table_.fullAdvert(hello.id);
-  if (!all.entries.empty()) sendLinkMessage(link, all);
+  if (!all.entries.empty()) sendRoutes(link, all);
+}
+
+// --- Secured ecologies ------------------------------------------------------------
+
+void Network::Impl::refuse(Link& link, const std::string& reason) {
+  if (limitLogged_.size() > 256) limitLogged_.clear();  // reasons name PEIS: keep it bounded
+  limitHit(counters_.authRefused, "refused: " + reason,
+           "refused " + link.remote_ +
+               (link.peer_.id != 0 ? " (claims PEIS " + std::to_string(link.peer_.id) + ")" : "") +
+               ": " + reason);
+  link.close("refused: " + reason);
+}
+
+void Network::Impl::onSecuredHello(Link& link, const wire::Hello& hello, std::string_view frame) {
+  auto& sec = *link.security_;
+  if (sec.keyed) {  // a second Hello
+    ++link.malformed_;
+    return;
+  }
+  if (hello.version != wire::kVersion) {
+    return link.close("protocol version " + std::to_string(hello.version) + " is not " +
+                      std::to_string(wire::kVersion));
+  }
+  if (hello.ecology != config_.ecology) {
+    ++counters_.foreignEcologyRejected;
+    return link.close("peer belongs to ecology '" + hello.ecology + "'");
+  }
+  if (auto error = sec.handshake->onPeerHello(hello.auth, link.ownHello(), frame)) {
+    return refuse(link, *error);
+  }
+  // Nothing of this Hello is believed until its Auth proves it.
+  link.peer_ = hello;
+  link.secure(std::make_unique<security::RecordCipher>(
+      sec.handshake->suite(), sec.handshake->sendKey(), sec.handshake->receiveKey()));
+  sec.keyed = true;
+  sendLinkMessage(link, wire::Auth{security::encodeIdentity(*ownIdentity_),
+                                   sec.handshake->transcriptSignature()});
+}
+
+void Network::Impl::onAuth(Link& link, const wire::Auth& auth) {
+  if (!link.security_ || !link.security_->keyed || link.security_->peer || link.established_) {
+    return onMalformed(link, "an Auth out of place");
+  }
+  auto& sec = *link.security_;
+  const auto now = std::chrono::duration_cast<std::chrono::seconds>(
+                       std::chrono::system_clock::now().time_since_epoch())
+                       .count();
+  auto checked = sec.handshake->checkAuth(auth.identity, auth.signature, link.peer_.id,
+                                          link.peer_.incarnation, link.peer_.name, anchor_, now);
+  if (auto* error = std::get_if<std::string>(&checked)) return refuse(link, *error);
+  auto& identity = std::get<security::Identity>(checked);
+  if (events_.refuseIdentity) {
+    if (auto why = events_.refuseIdentity(identity)) return refuse(link, *why);
+  }
+  log::debug(self_, "PEIS " + std::to_string(identity.id) + " at " + link.remote_ + " proved " +
+                        security::describe(identity.certificate));
+  sec.handshake.reset();
+  sec.identitiesSent[self_] = incarnation_;                // ours went in our Auth
+  sec.identitiesSent[identity.id] = identity.incarnation;  // it knows its own
+  book_.put(identity);
+  sec.peer = std::move(identity);
+  establishOrClose(link, link.peer_);
+}
+
+void Network::Impl::onIdentity(Link& link, const wire::Identity& message) {
+  if (!link.security_) return onMalformed(link, "an Identity on an open link");
+  std::string error;
+  std::string_view in = message.identity;
+  auto identity = security::decodeIdentity(in, error);
+  if (!identity || !in.empty()) return onMalformed(link, "broken identity: " + error);
+  const auto now = std::chrono::duration_cast<std::chrono::seconds>(
+                       std::chrono::system_clock::now().time_since_epoch())
+                       .count();
+  auto problem = security::identityProblem(*identity, anchor_, now);
+  if (!problem && events_.refuseIdentity) problem = events_.refuseIdentity(*identity);
+  if (problem) {
+    ++counters_.unentitled;
+    return onMalformed(
+        link, "identity of PEIS " + std::to_string(identity->id) + " refused: " + *problem);
+  }
+  if (identity->id == self_) return;  // ours, or a claim of it: never taken from others
+  if (!book_.find(identity->id) && book_.size() >= config_.maxRoutes + links_.size()) {
+    forgetIdentities();
+    if (book_.size() >= config_.maxRoutes + links_.size()) {
+      return limitHit(counters_.routesRefused, "identities",
+                      "refused an identity from PEIS " + std::to_string(link.peer_.id) +
+                          ": over --peis-max-routes identities are known");
+    }
+  }
+  book_.put(std::move(*identity));
+}
+
+// Identities of PEIS no route and no neighbour's advert names any more.
+void Network::Impl::forgetIdentities() {
+  book_.forgetIf([&](PeisId id) {
+    if (table_.contains(id)) return false;
+    for (const auto& link : links_) {
+      if (link->established_ && (link->peer_.id == id || table_.advertises(link->peer_.id, id)))
+        return false;
+    }
+    return true;
+  });
+}
+
+void Network::Impl::keepEntitled(Link& link, std::vector<wire::RouteEntry>& entries) {
+  const auto before = entries.size();
+  std::erase_if(entries, [&](const wire::RouteEntry& e) {
+    if (e.hops == RoutingTable::kWithdrawn) return false;
+    if (e.id == self_) return true;  // never ours from another
+    if (e.id == link.peer_.id) {
+      return e.incarnation != link.peer_.incarnation || e.name != link.peer_.name;
+    }
+    return !book_.vouches(e.id, e.incarnation, e.name);
+  });
+  if (entries.size() < before) {
+    limitHit(counters_.unentitled, "unentitled routes",
+             "dropped " + std::to_string(before - entries.size()) + " route entries from PEIS " +
+                 std::to_string(link.peer_.id) +
+                 " naming PEIS (or names) whose identity it did not prove",
+             before - entries.size());
+  }
+}
+
+bool Network::Impl::tagHolds(PeisId source, const std::string& tag, std::string_view frame) {
+  const auto* identity = book_.find(source);
+  if (identity && !tag.empty() && tags_->check(identity->certificate.publicKey, tag, frame)) {
+    return true;
+  }
+  ++counters_.malformedFrames;
+  limitHit(counters_.unentitled, "untagged",
+           "dropped a frame relayed from PEIS " + std::to_string(source) +
+               (tag.empty() ? " without its source tag" : " whose source tag does not hold"));
+  return false;
+}
+
+void Network::Impl::sendTag(Link& link, std::string tag) {
+  sendLinkMessage(link, wire::SourceTag{std::move(tag)});
+}
+
+void Network::Impl::sendRoutes(Link& link, const wire::Routes& routes) {
+  if (link.security_) {
+    auto& sent = link.security_->identitiesSent;
+    for (const auto& e : routes.entries) {
+      if (e.hops == RoutingTable::kWithdrawn) {
+        sent.erase(e.id);  // told again with the route, if it comes back
+        continue;
+      }
+      const auto it = sent.find(e.id);
+      if (it != sent.end() && it->second == e.incarnation) continue;
+      const auto* identity = e.id == self_ ? &*ownIdentity_ : book_.find(e.id);
+      if (!identity || identity->incarnation != e.incarnation) continue;
+      sendLinkMessage(link, wire::Identity{security::encodeIdentity(*identity)});
+      sent[e.id] = e.incarnation;
+    }
+  }
+  sendLinkMessage(link, routes);
+}
+
+std::size_t Network::Impl::recheckIdentities() {
+  if (!secured() || !events_.refuseIdentity) return 0;
+  std::size_t closed = 0;
+  auto links = links_;
+  for (auto& link : links) {
+    if (!link->security_ || !link->security_->peer) continue;
+    if (auto why = events_.refuseIdentity(*link->security_->peer)) {
+      ++closed;
+      refuse(*link, *why);
+    }
+  }
+  book_.forgetIf([&](PeisId id) {
+    const auto* identity = book_.find(id);
+    return identity && events_.refuseIdentity(*identity).has_value();
+  });
+  return closed;
 }
 
 void Network::Impl::collision(std::uint64_t otherIncarnation) {
   if (otherIncarnation != 0 && otherIncarnation > incarnation_) return;  // the other re-picks
+  if (!mayGiveUpId()) {
+    log::warn(self_, "another PEIS claims id " + std::to_string(self_) +
+                         " and an earlier start; keeping it (held longer than the join window)");
+    return;
+  }
   const PeisId old = self_;
   self_ = events_.repickId ? events_.repickId() : old;
   log::warn(old, "id " + std::to_string(old) + " is held by a PEIS that started earlier; now " +
                      std::to_string(self_));
   table_.reset(self_);
   ++routesEpoch_;
+  if (secured()) {
+    ownIdentity_ = security::makeIdentity(*config_.credentials, self_, incarnation_, config_.name);
+  }
   auto links = links_;
   for (auto& l : links) l->close("re-picked my id");
   discovery_.setSelf(self_);
@@ -623,7 +954,16 @@ void Network::Impl::cutOff(PeisId destination, const std::string& reason) {
 
 void Network::Impl::onRoutes(Link& link, wire::Routes& routes) {
   ++routesEpoch_;
+  if (link.security_) keepEntitled(link, routes.entries);
+  const auto refused = table_.refused();
   table_.onRoutes(link.peer_.id, routes.entries);
+  if (table_.refused() > refused) {
+    limitHit(counters_.routesRefused, "routes",
+             "refused " + std::to_string(table_.refused() - refused) + " route entries from " +
+                 "PEIS " + std::to_string(link.peer_.id) + ": over " +
+                 std::to_string(config_.maxRoutes) + " routes (--peis-max-routes)",
+             table_.refused() - refused);
+  }
   // Adverts arrive in bursts: recompute once per burst.
   if (table_.hasWork()) scheduleRecompute();
 }
@@ -666,7 +1006,14 @@ void Network::Impl::recompute() {
     collision(*other);
     return;
   }
+  const auto refused = table_.refused();
   const auto changes = table_.recompute(SteadyClock::now());
+  if (table_.refused() > refused) {
+    limitHit(counters_.routesRefused, "routes",
+             "the routing table is full: " + std::to_string(config_.maxRoutes) +
+                 " routes (--peis-max-routes)",
+             table_.refused() - refused);
+  }
   afterTable();
   retryHeld();
   for (const PeisId id : changes.down) {
@@ -697,6 +1044,16 @@ void Network::Impl::throttle(Throttle& t, std::chrono::milliseconds interval,
   });
 }
 
+void Network::Impl::limitHit(std::uint64_t& counter, const std::string& kind,
+                             const std::string& message, std::uint64_t count) {
+  counter += count;
+  const auto now = SteadyClock::now();
+  auto [it, first] = limitLogged_.try_emplace(kind, now);
+  if (!first && now - it->second < kLimitLogEvery) return;
+  it->second = now;
+  log::warn(self_, message + " [" + kind + " limit hit " + std::to_string(counter) + " times]");
+}
+
 void Network::Impl::scheduleRecompute() {
   throttle(recomputeThrottle_, kRecomputeDelay, &Impl::recompute);
 }
@@ -705,7 +1062,7 @@ void Network::Impl::scheduleAdvert() { throttle(advertThrottle_, kAdvertDelay, &
 
 void Network::Impl::advertise() {
   for (auto& [peer, routes] : table_.advertise()) {
-    if (auto* link = findLink(peer)) sendLinkMessage(*link, routes);
+    if (auto* link = findLink(peer)) sendRoutes(*link, routes);
   }
 }
 
@@ -715,6 +1072,9 @@ void Network::Impl::advertise() {
 void Network::Impl::onRouted(Link& link, std::string_view frame) {
   const auto envelope = inbox_.back().envelope;
   auto drop = [this] { inbox_.pop_back(); };
+  // A secured link: the frame's SourceTag, if one came right before it.
+  std::string tag;
+  if (link.security_) tag = std::exchange(link.security_->pendingTag, std::string());
   if (envelope.source == self_) {  // our own frame came back: a transient loop
     ++counters_.unroutable;
     return drop();
@@ -731,14 +1091,8 @@ void Network::Impl::onRouted(Link& link, std::string_view frame) {
       recompute();
       inbox_.push_back(std::move(message));
     }
-    // A linked PEIS sends its own frames over its own link, so a frame
-    // claiming its id from another link is spoofed, unless that link's PEIS
-    // advertised a route to it: then it relays frames sent while routes were
-    // changing (e.g. the full sync of a subscription made before the direct
-    // link was up).
-    const auto* direct = findLink(envelope.source);
-    const bool relayed = table_.advertises(link.peer_.id, envelope.source);
-    if (direct && direct != &link && !relayed) {
+    const auto now = SteadyClock::now();
+    if (!sourceMayArriveOver(link, envelope, now)) {
       ++counters_.malformedFrames;
       log::warn(self_, "dropped a frame from " + link.remote_ + " with spoofed source " +
                            std::to_string(envelope.source));
@@ -751,31 +1105,73 @@ void Network::Impl::onRouted(Link& link, std::string_view frame) {
     }
     if (!table_.contains(envelope.source)) {
       // A PEIS we have no route to yet: the adverts naming it travel one hop
-      // per advert delay, its first messages can be faster. Hold them briefly.
-      if (held_.size() >= kMaxHeldFrames) {
+      // per advert delay, its first messages can be faster. Hold them
+      // briefly, within bounds (Limits::maxHeldBytes).
+      if (held_.size() >= kMaxHeldFrames || heldBytes_ + frame.size() > config_.maxHeldBytes) {
         ++counters_.unroutable;
+        limitHit(counters_.heldFramesDropped, "held",
+                 "dropped a frame from unknown PEIS " + std::to_string(envelope.source) + ": " +
+                     std::to_string(held_.size()) + " frames of " + std::to_string(heldBytes_) +
+                     " bytes wait for their routes (--peis-max-held-bytes)");
         return drop();
       }
-      held_.push_back(Held{std::string(frame), std::move(inbox_.back()), SteadyClock::now()});
+      heldBytes_ += frame.size();
+      held_.push_back(
+          Held{std::string(frame), std::move(inbox_.back()), now, link.peer_.id, std::move(tag)});
       return drop();
     }
-    link.checkedSource_ = envelope.source;
-    link.checkedEpoch_ = routesEpoch_;
+    // Remembered only when it holds until the routes change (not when it
+    // held for a grace period that may end first).
+    if (link.peer_.id == envelope.source || table_.nextHop(envelope.source) == link.peer_.id) {
+      link.checkedSource_ = envelope.source;
+      link.checkedEpoch_ = routesEpoch_;
+    }
   }
-  if (envelope.destination == self_) return;  // stays in the inbox
-  forwardFrame(frame, envelope);
+  if (envelope.destination == self_) {
+    // In a secured ecology a frame from further away proves its source.
+    if (link.security_ && envelope.source != link.peer_.id &&
+        !tagHolds(envelope.source, tag, frame)) {
+      return drop();
+    }
+    return;  // stays in the inbox
+  }
+  forwardFrame(frame, envelope, tag);
   drop();
 }
 
-void Network::Impl::deliverOrForward(std::string_view frame, wire::RoutedMessage&& message) {
+// A linked PEIS sends its own frames over its own link: a frame for this
+// PEIS claiming its id from another link is spoofed, unless that link is the
+// one our route to it went through until moments ago, or, moments after the
+// link came up, its PEIS offers a route to it (frames sent while the routes
+// were changing, such as the full sync of a subscription made before the
+// direct link came up). A frame passing through may also come from a
+// neighbour that offers a route to its source: the source chose that way
+// while an advert was on its way (its destination checks it again). A frame
+// from a PEIS that is not linked must come from our next hop to it, or a
+// neighbour that offers a route to it at least as short (routes may be
+// asymmetric only between equals), or the next hop of moments ago.
+bool Network::Impl::sourceMayArriveOver(const Link& link, const wire::Envelope& envelope,
+                                        SteadyClock::time_point now) const {
+  if (link.peer_.id == envelope.source) return true;
+  if (table_.mayRelay(link.peer_.id, envelope.source, now, config_.relayGrace)) return true;
+  return envelope.destination != self_ && table_.advertises(link.peer_.id, envelope.source);
+}
+
+void Network::Impl::deliverOrForward(std::string_view frame, wire::RoutedMessage&& message,
+                                     PeisId from, const std::string& tag) {
   if (message.envelope.destination == self_) {
+    if (secured() && message.envelope.source != from &&
+        !tagHolds(message.envelope.source, tag, frame)) {
+      return;
+    }
     inbox_.push_back(std::move(message));
     return;
   }
-  forwardFrame(frame, message.envelope);
+  forwardFrame(frame, message.envelope, tag);
 }
 
-void Network::Impl::forwardFrame(std::string_view frame, const wire::Envelope& envelope) {
+void Network::Impl::forwardFrame(std::string_view frame, const wire::Envelope& envelope,
+                                 const std::string& tag) {
   if (envelope.ttl <= 1) {
     ++counters_.unroutable;
     return;
@@ -788,7 +1184,7 @@ void Network::Impl::forwardFrame(std::string_view frame, const wire::Envelope& e
   auto routedEnvelope = envelope;
   --routedEnvelope.ttl;
   wire::reEnvelope(copy, routedEnvelope);
-  forward(envelope.destination, std::move(copy), envelope.source);
+  forward(envelope.destination, std::move(copy), envelope.source, tag);
 }
 
 // Frames held for an unknown source: process those whose source is now
@@ -810,12 +1206,22 @@ void Network::Impl::retryHeld() {
   std::deque<Held> keep;
   auto held = std::move(held_);
   held_.clear();
+  heldBytes_ = 0;
   for (auto& h : held) {
-    if (table_.contains(h.message.envelope.source)) {
-      deliverOrForward(h.frame, std::move(h.message));
+    const auto source = h.message.envelope.source;
+    if (table_.contains(source)) {
+      // Checked again now that the source has a route: the PEIS it came
+      // from must be one it may come from.
+      const auto* from = findLink(h.from);
+      if (from && sourceMayArriveOver(*from, h.message.envelope, now)) {
+        deliverOrForward(h.frame, std::move(h.message), h.from, h.tag);
+      } else {
+        ++counters_.malformedFrames;
+      }
     } else if (now - h.arrived > kHoldFor) {
       ++counters_.unroutable;
     } else {
+      heldBytes_ += h.frame.size();
       keep.push_back(std::move(h));
     }
   }
@@ -840,14 +1246,24 @@ Link* Network::Impl::nextHopLink(PeisId destination) {
   return link;
 }
 
-bool Network::Impl::forward(PeisId destination, std::string frame, PeisId relayedFrom) {
+bool Network::Impl::forward(PeisId destination, std::string frame, PeisId relayedFrom,
+                            const std::string& tag) {
   auto* link = nextHopLink(destination);
   if (!link) return false;
   // The next hop takes a frame claiming a linked PEIS's id from another link
   // for spoofed unless that link advertised a route to it: the advert must
   // not lag behind the frames relayed from that PEIS (adverts are batched).
   if (relayedFrom != 0) {
-    if (auto one = table_.tellNow(link->peer_.id, relayedFrom)) sendLinkMessage(*link, *one);
+    if (auto one = table_.tellNow(link->peer_.id, relayedFrom)) sendRoutes(*link, *one);
+  }
+  if (!tag.empty()) {
+    sendTag(*link, tag);  // relayed with the frame it proves
+  } else if (relayedFrom == 0 && secured() && link->peer_.id != destination) {
+    // Ours, over relays: it proves its source to its destination.
+    if (const auto* identity = book_.find(destination)) {
+      sendTag(*link, tags_->tag(identity->certificate.publicKey,
+                                std::string_view(frame).substr(wire::kFrameHeaderBytes)));
+    }
   }
   link->sendFrame(frame);
   if (link->backlog() > config_.maxBacklogBytes) {
@@ -867,6 +1283,12 @@ bool Network::Impl::sendUpdate(PeisId destination, std::uint64_t incarnation,
                                const std::shared_ptr<const Tuple>& tuple) {
   auto* link = nextHopLink(destination);
   if (!link) return false;
+  if (link->security_ && link->peer_.id != destination) {  // over relays: tagged
+    std::string frame;
+    wire::encodeTupleUpdate(wire::Envelope{self_, destination, wire::kDefaultTtl}, incarnation,
+                            *tuple, frame);
+    return forward(destination, std::move(frame));
+  }
   link->sendUpdate(wire::Envelope{self_, destination, wire::kDefaultTtl}, incarnation, tuple);
   return true;
 }
@@ -877,6 +1299,14 @@ bool Network::Impl::sendFrames(PeisId destination, std::string_view frames, std:
   if (!link) {
     counters_.unroutable += count;
     return false;
+  }
+  if (link->security_ && next != destination) {  // over relays: each frame tagged
+    while (frames.size() >= wire::kFrameHeaderBytes) {
+      const auto bytes = wire::kFrameHeaderBytes + wire::frameLength(frames);
+      forward(destination, std::string(frames.substr(0, bytes)));
+      frames.remove_prefix(std::min(bytes, frames.size()));
+    }
+    return true;
   }
   link->sendBytes(frames, count);
   return true;
@@ -1025,6 +1455,8 @@ std::size_t Network::congestedAboveBytes() const { return impl_->congestedAboveB
 std::vector<PeerInfo> Network::peers() const { return impl_->peers(); }
 std::vector<LinkInfo> Network::links() const { return impl_->links(); }
 const Counters& Network::counters() const { return impl_->counters_; }
+const security::Identity* Network::identityOf(PeisId id) const { return impl_->identityOf(id); }
+std::size_t Network::recheckIdentities() { return impl_->recheckIdentities(); }
 std::uint16_t Network::port() const { return impl_->listenPort(); }
 PeisId Network::self() const { return impl_->self_; }
 

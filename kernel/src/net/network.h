@@ -21,6 +21,11 @@
 #include "net/wire.h"
 #include "peis/types.h"
 
+namespace peis::security {
+struct Credentials;
+struct Identity;
+}  // namespace peis::security
+
 namespace peis::net {
 
 class Link;
@@ -45,6 +50,20 @@ struct NetworkConfig {
   std::chrono::milliseconds stalledAfter{2000};
   std::size_t maxBacklogBytes = 64u << 20;
   int maxMalformedFrames = 8;  // then the peer is disconnected
+  // Limits against misbehaving peers (Options::limits, docs/security.md).
+  std::chrono::milliseconds handshakeTimeout{5000};
+  std::size_t maxConnections = 256;
+  std::size_t maxHandshakesPerHost = 16;
+  std::size_t maxRoutes = 4096;
+  std::size_t maxHeldBytes = 4u << 20;
+  // How long after start this PEIS gives its id up to an earlier holder.
+  std::chrono::milliseconds idClaimWindow{10000};
+  // How long frames of a PEIS whose route changed still come the old way.
+  std::chrono::milliseconds relayGrace{2000};
+  // A secured ecology's credentials (docs/security.md): links are then
+  // authenticated and encrypted, routes, names and ids checked against the
+  // identities PEIS prove. Null: an open ecology.
+  std::shared_ptr<const security::Credentials> credentials;
   // A short-lived tool PEIS (the `peis` command): marked as such in its
   // Hello, beacons and route; other PEIS leave it out of their overlay, and
   // it relays for nobody (docs/protocol.md §6, §8).
@@ -85,6 +104,9 @@ class Network {
     std::function<void()> onWritable;
     // Another PEIS that started earlier holds our id: pick a new one.
     std::function<PeisId()> repickId;
+    // Secured ecologies: why a PEIS that proved this identity is refused
+    // (its credentials revoked), or nothing.
+    std::function<std::optional<std::string>(const security::Identity&)> refuseIdentity;
   };
 
   Network(boost::asio::io_context& io, NetworkConfig config, PeisId self, std::uint64_t incarnation,
@@ -121,8 +143,10 @@ class Network {
   // with this PEIS as their source (copied into the link's write buffer).
   bool sendFrames(PeisId destination, std::string_view frames, std::uint32_t count);
 
-  // The link of `destination`'s next hop (null when none), for direct sends
-  // from other threads (Link::sendNow); valid until the next onTopology.
+  // The link of `destination`'s next hop (null when none, and on a secured
+  // link when the next hop is a relay: those frames carry SourceTags), for
+  // direct sends from other threads (Link::sendNow, which seals on a
+  // secured link); valid until the next onTopology.
   std::shared_ptr<Link> linkTowards(PeisId destination) const;
   // The backlog above which a link counts as congested (coalesceAboveBytes).
   std::size_t congestedAboveBytes() const;
@@ -131,6 +155,12 @@ class Network {
   std::vector<PeerInfo> peers() const;
   std::vector<LinkInfo> links() const;
   const Counters& counters() const;
+  // Secured ecologies: the identity PEIS `id` proved (directly or passed on
+  // with its route); null when unknown or in an open ecology.
+  const security::Identity* identityOf(PeisId id) const;
+  // Closes the links to PEIS whose identity refuseIdentity now refuses (the
+  // policy changed); returns how many.
+  std::size_t recheckIdentities();
   std::uint16_t port() const;
   PeisId self() const;
 

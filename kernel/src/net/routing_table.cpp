@@ -12,6 +12,8 @@ std::size_t nameHash(const std::string& name) { return std::hash<std::string>{}(
 
 // How often the memory of departed PEIS is swept.
 constexpr std::chrono::seconds kSweepEvery{1};
+// How far above its own seqno a PEIS raises it when asked.
+constexpr std::uint32_t kMaxSeqnoStep = 64;
 
 }  // namespace
 
@@ -60,32 +62,106 @@ bool RoutingTable::departed(PeisId id, std::uint64_t incarnation) const {
   return d != departed_.end() && incarnation <= d->second.incarnation;
 }
 
+// Small deltas are applied entry by entry; a big advert (a whole table, or a
+// flood) is sorted and merged in one pass, so that n entries cost
+// O(n log n) whatever their order (inserting them one by one into the
+// sorted advert costs O(n) each: a 65,534-entry advert in descending order
+// once took seconds).
+constexpr std::size_t kMergeAbove = 64;
+
 void RoutingTable::onRoutes(PeisId from, std::vector<wire::RouteEntry>& entries) {
   auto neighbour = neighbours_.find(from);
   if (neighbour == neighbours_.end()) return;
-  auto& known = neighbour->second.advert;
-  for (auto& entry : entries) {
-    const auto id = entry.id;
-    if (id == config_.self) {
-      // Its own entry (0 hops) naming our id: another PEIS holds it.
-      if (entry.hops == 0 && entry.incarnation != config_.incarnation) {
-        collision_ = entry.incarnation;
-      }
-      continue;
+  if (entries.size() > kMergeAbove) return mergeEntries(from, neighbour->second, entries);
+  for (auto& entry : entries) applyEntry(from, neighbour->second, entry);
+}
+
+RoutingTable::EntryKind RoutingTable::kindOf(PeisId from, const wire::RouteEntry& entry) {
+  if (entry.id == config_.self) {
+    // Its own entry (0 hops) naming our id: another PEIS holds it.
+    if (entry.hops == 0 && entry.incarnation != config_.incarnation) {
+      collision_ = entry.incarnation;
     }
-    if (entry.hops == kWithdrawn || departed(id, entry.incarnation) ||
-        (entry.hops == 0 && id != from)) {  // only the sender itself is at 0 hops
+    return EntryKind::Ours;
+  }
+  if (entry.hops == kWithdrawn || departed(entry.id, entry.incarnation) ||
+      (entry.hops == 0 && entry.id != from)) {  // only the sender itself is at 0 hops
+    return EntryKind::Removes;
+  }
+  return EntryKind::Offer;
+}
+
+void RoutingTable::applyEntry(PeisId from, Neighbour& neighbour, wire::RouteEntry& entry) {
+  auto& known = neighbour.advert;
+  const auto id = entry.id;
+  switch (kindOf(from, entry)) {
+    case EntryKind::Ours:
+      return;
+    case EntryKind::Removes: {
       const auto old = known.find(id);
-      if (old == known.end()) continue;
+      if (old == known.end()) return;
       auto withdrawn = std::move(old->second);
       withdrawn.hops = kWithdrawn;
       known.erase(old);
       entryChanged(from, withdrawn);
-      continue;
+      return;
     }
-    entryChanged(from, entry);
-    known.insert_or_assign(id, std::move(entry));
+    case EntryKind::Offer:
+      break;
   }
+  if (known.size() >= config_.maxRoutes && !known.count(id)) {
+    ++refused_;
+    return;
+  }
+  entryChanged(from, entry);
+  known.insert_or_assign(id, std::move(entry));
+}
+
+void RoutingTable::mergeEntries(PeisId from, Neighbour& neighbour,
+                                std::vector<wire::RouteEntry>& entries) {
+  // The last entry of an id wins, as when applied in order.
+  std::stable_sort(entries.begin(), entries.end(),
+                   [](const auto& a, const auto& b) { return a.id < b.id; });
+  auto& known = neighbour.advert;
+  std::vector<std::pair<PeisId, wire::RouteEntry>> merged;
+  merged.reserve(std::min(known.size() + entries.size(), config_.maxRoutes + 1));
+  std::size_t size = known.size();
+  auto old = known.begin();
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    if (i + 1 < entries.size() && entries[i + 1].id == entries[i].id) continue;
+    auto& entry = entries[i];
+    while (old != known.end() && old->first < entry.id) merged.push_back(std::move(*old++));
+    const bool had = old != known.end() && old->first == entry.id;
+    switch (kindOf(from, entry)) {
+      case EntryKind::Ours:
+        break;
+      case EntryKind::Removes:
+        if (had) {
+          auto withdrawn = std::move(old->second);
+          withdrawn.hops = kWithdrawn;
+          ++old;
+          --size;
+          entryChanged(from, withdrawn);
+        }
+        continue;
+      case EntryKind::Offer:
+        if (!had && size >= config_.maxRoutes) {
+          ++refused_;
+          continue;
+        }
+        if (had) {
+          ++old;
+        } else {
+          ++size;
+        }
+        entryChanged(from, entry);
+        merged.emplace_back(entry.id, std::move(entry));
+        continue;
+    }
+  }
+  while (old != known.end()) merged.push_back(std::move(*old++));
+  known = boost::container::flat_map<PeisId, wire::RouteEntry>(
+      boost::container::ordered_unique_range, merged.begin(), merged.end());
 }
 
 // An advert entry from `from` changed: its id needs re-evaluating only if the
@@ -105,9 +181,18 @@ void RoutingTable::entryChanged(PeisId from, const wire::RouteEntry& e) {
   }
 }
 
-bool RoutingTable::onLeave(PeisId, const wire::Leave& leave, Time now) {
+bool RoutingTable::onLeave(PeisId from, const wire::Leave& leave, Time now) {
   if (leave.id == config_.self) return false;               // it is not us who left
   if (departed(leave.id, leave.incarnation)) return false;  // heard already
+  // A linked PEIS says so itself, on its own link; and a PEIS nobody here
+  // has a route to needs no memory (a flood of made-up Leaves costs nothing).
+  if (neighbours_.count(leave.id) && from != leave.id) return false;
+  if (!routes_.count(leave.id)) {
+    bool offered = false;
+    for (const auto& [peer, neighbour] : neighbours_)
+      offered |= neighbour.advert.count(leave.id) != 0;
+    if (!offered) return false;
+  }
   departed_[leave.id] = Departed{leave.incarnation, now};
   for (auto& [peer, neighbour] : neighbours_) {
     const auto entry = neighbour.advert.find(leave.id);
@@ -121,7 +206,12 @@ bool RoutingTable::onLeave(PeisId, const wire::Leave& leave, Time now) {
 
 void RoutingTable::onSeqnoRequest(PeisId from, const wire::SeqnoRequest& request, Time now) {
   if (request.id == config_.self) {
-    if (request.incarnation != config_.incarnation || request.seqno <= ownSeqno_) return;
+    // Nobody can have heard a seqno of ours above ownSeqno_: a request far
+    // beyond it is made up (it would use up the seqnos, which never wrap).
+    if (request.incarnation != config_.incarnation || request.seqno <= ownSeqno_ ||
+        request.seqno > ownSeqno_ + kMaxSeqnoStep) {
+      return;
+    }
     ownSeqno_ = request.seqno;  // the new seqno reaches everybody with the next advert
     routes_[config_.self].seqno = ownSeqno_;
     advertDirty_.insert(config_.self);
@@ -209,11 +299,15 @@ void RoutingTable::evaluate(PeisId id, Time now, Changes& changes) {
       b = c;
     }
   };
+  // A linked PEIS is reached over its link, whatever others offer: its own
+  // Hello says its incarnation (an offer of a "newer life" from another
+  // PEIS would otherwise take its route away).
+  const bool linked = neighbours_.count(id) != 0;
   for (const auto& [peer, n] : neighbours_) {
+    if (linked && peer != id) continue;
     if (peer == id) {
       // The direct link: at 0 hops from its own end, always feasible.
       if (departed(id, n.hello.incarnation)) continue;
-      if (f && n.hello.incarnation < f->incarnation) continue;  // its old life, not yet dead
       std::uint32_t seqno = f && f->incarnation == n.hello.incarnation ? f->seqno : 0;
       const auto own = n.advert.find(id);
       if (own != n.advert.end() && own->second.incarnation == n.hello.incarnation) {
@@ -236,10 +330,14 @@ void RoutingTable::evaluate(PeisId id, Time now, Changes& changes) {
   if (best.name || !bestHeld.name) recheckAt_.erase(id);
   if (best.name) {
     heldUntil_.erase(id);
+    if (old == routes_.end() && best.nextHop != id && routes_.size() > config_.maxRoutes) {
+      ++refused_;  // the table is full; a linked PEIS still enters
+      return;
+    }
     setRoute(
         id,
         Route{best.hops, best.nextHop, best.incarnation, best.seqno, *best.name, best.tool, false},
-        changes);
+        now, changes);
     auto& feas = feasibility_[id];
     if (!f || best.incarnation != feas.incarnation || best.seqno > feas.seqno) {
       feas = Feasibility{best.incarnation, best.seqno, best.hops, std::nullopt};
@@ -274,12 +372,13 @@ void RoutingTable::evaluate(PeisId id, Time now, Changes& changes) {
   setRoute(id,
            Route{bestHeld.hops, bestHeld.nextHop, bestHeld.incarnation, bestHeld.seqno,
                  *bestHeld.name, bestHeld.tool, true},
-           changes);
+           now, changes);
 }
 
-void RoutingTable::setRoute(PeisId id, Route route, Changes& changes) {
+void RoutingTable::setRoute(PeisId id, Route route, Time now, Changes& changes) {
   const auto old = routes_.find(id);
   if (old == routes_.end()) {
+    route.nextHopSince = now;
     routes_.emplace(id, std::move(route));
     changes.up.push_back(id);
     changes.topology = true;
@@ -292,6 +391,13 @@ void RoutingTable::setRoute(PeisId id, Route route, Changes& changes) {
   if (r.hops != route.hops || r.nextHop != route.nextHop || r.name != route.name ||
       r.tool != route.tool || r.incarnation != route.incarnation) {
     changes.topology = true;
+  }
+  if (r.nextHop != route.nextHop) {
+    route.previousNextHop = r.nextHop;
+    route.nextHopSince = now;
+  } else {
+    route.previousNextHop = r.previousNextHop;
+    route.nextHopSince = r.nextHopSince;
   }
   r = std::move(route);
   advertDirty_.insert(id);
@@ -325,7 +431,7 @@ std::vector<RoutingTable::Message> RoutingTable::takeMessages() {
 // --- Adverts -------------------------------------------------------------------------
 
 RoutingTable::Told RoutingTable::toldOf(const wire::RouteEntry& e) {
-  return Told{e.incarnation, e.seqno, nameHash(e.name), e.hops, e.flags};
+  return Told{e.incarnation, nameHash(e.name), e.seqno, e.hops, e.flags};
 }
 
 // What `neighbour` may be told of our route to `id`: nothing for a held
@@ -350,6 +456,7 @@ wire::Routes RoutingTable::fullAdvert(PeisId peer) {
   if (neighbour == neighbours_.end()) return all;
   auto& told = neighbour->second.told;
   told.clear();
+  told.reserve(routes_.size());
   neighbour->second.toldAll = true;
   for (const auto& [id, route] : routes_) {
     auto entry = entryFor(peer, id);
@@ -375,34 +482,65 @@ std::vector<std::pair<PeisId, wire::Routes>> RoutingTable::advertise() {
     }
     auto& told = neighbour.told;
     wire::Routes delta;
+    // What the neighbour is told now, in id order: merged into `told` in
+    // one pass (one insertion at a time would cost O(n) each).
+    std::vector<std::pair<PeisId, std::optional<Told>>> updates;
     for (const PeisId id : changed) {
       auto entry = entryFor(peer, id);
       const auto t = told.find(id);
       if (!entry) {
         if (t == told.end()) continue;
         delta.entries.push_back(wire::RouteEntry{id, kWithdrawn, 0, 0, 0, ""});
-        told.erase(t);
+        updates.emplace_back(id, std::nullopt);
         continue;
       }
       const auto now = toldOf(*entry);
       if (t != told.end() && t->second == now) continue;
-      told.insert_or_assign(id, now);
+      updates.emplace_back(id, now);
       delta.entries.push_back(std::move(*entry));
     }
+    mergeTold(told, updates);
     if (!delta.entries.empty()) out.emplace_back(peer, std::move(delta));
   }
   return out;
 }
 
+void RoutingTable::mergeTold(boost::container::flat_map<PeisId, Told>& told,
+                             const std::vector<std::pair<PeisId, std::optional<Told>>>& updates) {
+  if (updates.size() <= kMergeAbove) {
+    for (const auto& [id, now] : updates) {
+      if (now) {
+        told.insert_or_assign(id, *now);
+      } else {
+        told.erase(id);
+      }
+    }
+    return;
+  }
+  std::vector<std::pair<PeisId, Told>> merged;
+  merged.reserve(told.size() + updates.size());
+  auto old = told.begin();
+  for (const auto& [id, now] : updates) {  // ascending ids
+    while (old != told.end() && old->first < id) merged.push_back(*old++);
+    if (old != told.end() && old->first == id) ++old;
+    if (now) merged.emplace_back(id, *now);
+  }
+  merged.insert(merged.end(), old, told.end());
+  told = boost::container::flat_map<PeisId, Told>(boost::container::ordered_unique_range,
+                                                  merged.begin(), merged.end());
+}
+
 std::optional<wire::Routes> RoutingTable::tellNow(PeisId peer, PeisId id) {
   auto neighbour = neighbours_.find(peer);
-  if (neighbour == neighbours_.end() || !neighbour->second.toldAll ||
-      neighbour->second.told.count(id)) {
-    return std::nullopt;
-  }
+  if (neighbour == neighbours_.end() || !neighbour->second.toldAll) return std::nullopt;
   auto entry = entryFor(peer, id);
   if (!entry) return std::nullopt;
-  neighbour->second.told.insert_or_assign(id, toldOf(*entry));
+  // Told already, unless what it was told is older than the route now (a
+  // shorter route since: the neighbour would take the frame for spoofed).
+  const auto now = toldOf(*entry);
+  const auto told = neighbour->second.told.find(id);
+  if (told != neighbour->second.told.end() && told->second == now) return std::nullopt;
+  neighbour->second.told.insert_or_assign(id, now);
   wire::Routes one;
   one.entries.push_back(std::move(*entry));
   return one;
@@ -424,6 +562,25 @@ PeisId RoutingTable::nextHop(PeisId id) const {
 bool RoutingTable::advertises(PeisId peer, PeisId id) const {
   const auto neighbour = neighbours_.find(peer);
   return neighbour != neighbours_.end() && neighbour->second.advert.count(id) != 0;
+}
+
+bool RoutingTable::mayRelay(PeisId neighbour, PeisId id, Time now,
+                            std::chrono::milliseconds grace) const {
+  const auto route = routes_.find(id);
+  if (route == routes_.end()) return true;
+  const auto& r = route->second;
+  if (r.nextHop == neighbour) return true;
+  if (r.previousNextHop == neighbour && now - r.nextHopSince < grace) return true;
+  const auto n = neighbours_.find(neighbour);
+  if (n == neighbours_.end()) return false;
+  const auto offer = n->second.advert.find(id);
+  if (neighbours_.count(id)) {
+    // A linked PEIS: over its own link, but for `grace` after the link came
+    // up, frames it sent before through a neighbour that offers a route to
+    // it may still arrive that way.
+    return now - r.nextHopSince < grace && offer != n->second.advert.end();
+  }
+  return offer != n->second.advert.end() && offer->second.hops + 1 <= r.hops;
 }
 
 bool RoutingTable::hasAlternative(PeisId peer) const {

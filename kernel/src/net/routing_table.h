@@ -52,6 +52,10 @@ class RoutingTable {
     // How long what is known of a departed PEIS (its feasibility distance,
     // its leave) is remembered: stale adverts of it are refused meanwhile.
     std::chrono::milliseconds rememberFor{60000};
+    // PEIS in the table besides this one, and route entries one neighbour
+    // may advertise; entries beyond are refused and counted (a directly
+    // linked PEIS always enters: links are capped on their own).
+    std::size_t maxRoutes = 4096;
   };
 
   struct Route {
@@ -62,7 +66,13 @@ class RoutingTable {
     std::string name;
     bool tool = false;
     bool held = false;  // no feasible successor: kept, withdrawn, a newer seqno asked
-    bool operator==(const Route&) const = default;
+    // When the next hop last changed, and the one before (not part of ==).
+    Time nextHopSince{};
+    PeisId previousNextHop = 0;
+    bool operator==(const Route& o) const {
+      return hops == o.hops && nextHop == o.nextHop && incarnation == o.incarnation &&
+             seqno == o.seqno && name == o.name && tool == o.tool && held == o.held;
+    }
   };
   // What one recompute changed (for the Network's events).
   struct Changes {
@@ -118,8 +128,8 @@ class RoutingTable {
   // The deltas each neighbour needs since its last advert.
   std::vector<std::pair<PeisId, wire::Routes>> advertise();
   // Our route to `id` for `neighbour` now, if it has had its full advert,
-  // was not told one yet and may be told it (a relayed frame must not
-  // arrive before the route to its source, §8).
+  // was not told this route yet (none, or an older one) and may be told it
+  // (a relayed frame must not arrive before the route to its source, §8).
   std::optional<wire::Routes> tellNow(PeisId neighbour, PeisId id);
 
   // --- Queries ---------------------------------------------------------------------
@@ -131,15 +141,22 @@ class RoutingTable {
   bool advertises(PeisId neighbour, PeisId id) const;
   // Whether a linked PEIS other than `peer` advertises a route to it.
   bool hasAlternative(PeisId peer) const;
+  // Whether linked PEIS `neighbour` may relay frames from `id`: it is the
+  // next hop of our route to `id`, or was until `grace` ago, or (`id` not
+  // linked) offers a route to it at least as short; true too for an `id`
+  // without a route yet (its frames wait for it, then are asked again).
+  bool mayRelay(PeisId neighbour, PeisId id, Time now, std::chrono::milliseconds grace) const;
+  // Route entries refused so far (over Config::maxRoutes).
+  std::uint64_t refused() const { return refused_; }
   const std::map<PeisId, Route>& routes() const { return routes_; }
   std::uint32_t ownSeqno() const { return ownSeqno_; }
 
  private:
   // What a neighbour last heard from us about one route (for deltas).
-  struct Told {
+  struct Told {  // fields ordered for size: 24 bytes, 32 with its key
     std::uint64_t incarnation = 0;
-    std::uint32_t seqno = 0;
     std::size_t nameHash = 0;
+    std::uint32_t seqno = 0;
     std::uint8_t hops = 0;
     std::uint8_t flags = 0;
     bool operator==(const Told&) const = default;
@@ -178,12 +195,20 @@ class RoutingTable {
   };
 
   void markDirty(PeisId id) { dirty_.insert(id); }
+  // Applies one entry of a neighbour's advert to `known` (the per-entry
+  // path, for small deltas), or many at once in one sorted merge.
+  void applyEntry(PeisId from, Neighbour& neighbour, wire::RouteEntry& entry);
+  void mergeEntries(PeisId from, Neighbour& neighbour, std::vector<wire::RouteEntry>& entries);
+  // What an entry from `from` does: it is ours, it removes the id, or it
+  // is an offer.
+  enum class EntryKind { Ours, Removes, Offer };
+  EntryKind kindOf(PeisId from, const wire::RouteEntry& entry);
   void entryChanged(PeisId from, const wire::RouteEntry& entry);
   bool departed(PeisId id, std::uint64_t incarnation) const;
   bool feasible(PeisId id, std::uint64_t incarnation, std::uint32_t seqno, int theirHops) const;
   // Evaluates one destination; fills `changes`.
   void evaluate(PeisId id, Time now, Changes& changes);
-  void setRoute(PeisId id, Route route, Changes& changes);
+  void setRoute(PeisId id, Route route, Time now, Changes& changes);
   void dropRoute(PeisId id, Time now, Changes& changes);
   // Asks `id` (through `via`) for a seqno of at least `seqno`, unless the
   // same was asked less than `quiet` ago.
@@ -191,6 +216,9 @@ class RoutingTable {
            std::uint8_t hopLimit, Time now, std::chrono::milliseconds quiet);
   std::optional<wire::RouteEntry> entryFor(PeisId neighbour, PeisId id) const;
   static Told toldOf(const wire::RouteEntry& entry);
+  // Applies updates in ascending id order (nullopt: forgotten) to `told`.
+  static void mergeTold(boost::container::flat_map<PeisId, Told>& told,
+                        const std::vector<std::pair<PeisId, std::optional<Told>>>& updates);
 
   Config config_;
   std::uint32_t ownSeqno_ = 0;
@@ -205,6 +233,7 @@ class RoutingTable {
   std::set<PeisId> dirty_;        // ids whose route recompute() must re-evaluate
   std::set<PeisId> advertDirty_;  // ids whose route changed since the last advert
   std::uint64_t collision_ = 0;
+  std::uint64_t refused_ = 0;
   Time lastSweep_{};
 };
 

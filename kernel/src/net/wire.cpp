@@ -339,6 +339,26 @@ struct LinkEncoder {
     w.u8(m.hopLimit);
     endFrame(out, start);
   }
+  void operator()(const Auth& m) {
+    std::size_t start;
+    beginFrame(out, MessageType::Auth, start);
+    Writer w(out);
+    w.str16(m.identity);
+    w.raw(m.signature);
+    endFrame(out, start);
+  }
+  void operator()(const Identity& m) {
+    std::size_t start;
+    beginFrame(out, MessageType::Identity, start);
+    Writer(out).str16(m.identity);
+    endFrame(out, start);
+  }
+  void operator()(const SourceTag& m) {
+    std::size_t start;
+    beginFrame(out, MessageType::SourceTag, start);
+    Writer(out).raw(m.tag);
+    endFrame(out, start);
+  }
   void nonce(MessageType type, std::uint64_t value) {
     std::size_t start;
     beginFrame(out, type, start);
@@ -463,6 +483,16 @@ LinkMessage decodeLink(MessageType type, Reader& r) {
       m.hopLimit = r.u8("hop limit");
       return m;
     }
+    case MessageType::Auth: {
+      Auth m;
+      m.identity = r.str16("identity");
+      m.signature = r.bytes(kSignatureBytes, "signature");
+      return m;
+    }
+    case MessageType::Identity:
+      return Identity{r.str16("identity")};
+    case MessageType::SourceTag:
+      return SourceTag{r.bytes(kSourceTagBytes, "source tag")};
     default: {
       IdTaken m;
       m.id = r.id("taken id");
@@ -546,7 +576,9 @@ RoutedBody decodeBody(MessageType type, Reader& r, std::size_t maxDataBytes) {
   }
 }
 
-bool knownType(std::uint8_t type) { return (type >= 1 && type <= 7) || (type >= 16 && type <= 22); }
+bool knownType(std::uint8_t type) {
+  return (type >= 1 && type <= 10) || (type >= 16 && type <= 22);
+}
 
 }  // namespace
 

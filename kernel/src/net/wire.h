@@ -66,6 +66,22 @@ struct SeqnoRequest {
   bool operator==(const SeqnoRequest&) const = default;
 };
 
+// Secured ecologies (docs/protocol.md §15): the proof of who a link's peer
+// is, the identities passed on with routes, the tag of a relayed frame.
+struct Auth {
+  std::string identity;   // security::encodeIdentity
+  std::string signature;  // kSignatureBytes, over the handshake's transcript
+  bool operator==(const Auth&) const = default;
+};
+struct Identity {
+  std::string identity;
+  bool operator==(const Identity&) const = default;
+};
+struct SourceTag {
+  std::string tag;  // kSourceTagBytes
+  bool operator==(const SourceTag&) const = default;
+};
+
 struct Envelope {
   PeisId source = 0;
   PeisId destination = 0;
@@ -135,7 +151,8 @@ struct TupleWithheld {
   bool operator==(const TupleWithheld&) const = default;
 };
 
-using LinkMessage = std::variant<Hello, Ping, Pong, Routes, IdTaken, Leave, SeqnoRequest>;
+using LinkMessage = std::variant<Hello, Ping, Pong, Routes, IdTaken, Leave, SeqnoRequest, Auth,
+                                 Identity, SourceTag>;
 using RoutedBody = std::variant<Subscribe, Unsubscribe, TupleUpdate, TupleDeleted, Write,
                                 WriteResult, TupleWithheld>;
 struct RoutedMessage {

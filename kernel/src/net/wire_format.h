@@ -1,4 +1,4 @@
-// The PEIS wire protocol, version 2: every frame's byte layout. This header
+// The PEIS wire protocol, version 3: every frame's byte layout. This header
 // is the code-side statement of docs/protocol.md (which is normative); the
 // encoder and decoder in wire.cpp follow it field by field.
 //
@@ -15,7 +15,8 @@
 // Link messages (between two directly linked PEIS):
 //   Hello   u32 magic "PEIS" | u16 version | str8 ecology | i32 id |
 //           u64 incarnation | str8 name | u16 listen port | u32 capabilities |
-//           str16 auth (empty until authentication exists)
+//           str16 auth (empty in an open ecology; a secured ecology's
+//           HelloAuth, docs/protocol.md §15.4)
 //   Ping    u64 nonce          Pong  u64 nonce
 //   Routes  u16 count | count x (i32 id | u8 hops | u8 flags | u64 incarnation |
 //           u32 seqno | str8 name)
@@ -23,6 +24,10 @@
 //   Leave   i32 id | u64 incarnation  (that PEIS quit: forget it, pass it on)
 //   SeqnoRequest i32 id | u64 incarnation | u32 seqno | u8 hop limit
 //                (asks PEIS id for a route seqno of at least `seqno`)
+// Secured ecologies only (docs/protocol.md §15), inside the link's records:
+//   Auth      str16 identity | 64 bytes signature over the handshake
+//   Identity  str16 identity (of a PEIS this one advertises a route to)
+//   SourceTag 16 bytes (proves the source of the routed frame after it)
 //
 // Routed messages start with an envelope: i32 source | i32 destination | u8 ttl
 //   Subscribe    u64 subscription | u32 lease ms | u8 has owner | i32 owner |
@@ -57,7 +62,7 @@
 namespace peis::wire {
 
 inline constexpr std::uint32_t kMagic = 0x50454953;  // "PEIS"
-inline constexpr std::uint16_t kVersion = 2;
+inline constexpr std::uint16_t kVersion = 3;
 inline constexpr std::size_t kFrameHeaderBytes = 4;
 // Largest frame: the largest data any PEIS accepts plus room for the fields.
 inline constexpr std::size_t kMaxFrameOverhead = 64 * 1024;
@@ -71,6 +76,10 @@ inline constexpr std::size_t kMaxTupleHeadBytes = 4 + 4 + (2 + 256) + (1 + 255) 
 // envelope (9), the Write fields (30; a TupleUpdate's are fewer), tuple head.
 inline constexpr std::size_t kOversizeHeadBytes = 1 + 9 + 30 + kMaxTupleHeadBytes;
 inline constexpr std::uint8_t kDefaultTtl = 32;
+// The longest frame a PEIS takes on a link whose handshake is not complete
+// (a Hello, and in a secured ecology an Auth): a connection that has not
+// shown who it is costs at most this much buffer.
+inline constexpr std::size_t kMaxHandshakeFrameBytes = 8 * 1024;
 // Tuple data from this size on is sent from the stored tuple (gathered
 // write), not copied into an encoded frame.
 inline constexpr std::size_t kZeroCopyDataBytes = 16 * 1024;
@@ -83,6 +92,9 @@ enum class MessageType : std::uint8_t {
   IdTaken = 5,
   Leave = 6,
   SeqnoRequest = 7,
+  Auth = 8,
+  Identity = 9,
+  SourceTag = 10,
   Subscribe = 16,
   Unsubscribe = 17,
   TupleUpdate = 18,
@@ -99,7 +111,10 @@ inline constexpr std::uint32_t kNoDataLimit = 0xffffffff;
 
 // Capability flags in Hello.
 inline constexpr std::uint32_t kCapabilityCoalescing = 1u << 0;
-inline constexpr std::uint32_t kCapabilityTool = 1u << 1;  // a short-lived tool PEIS
+inline constexpr std::uint32_t kCapabilityTool = 1u << 1;     // a short-lived tool PEIS
+inline constexpr std::uint32_t kCapabilitySecured = 1u << 2;  // a secured ecology's PEIS
+inline constexpr std::size_t kSignatureBytes = 64;            // of an Auth
+inline constexpr std::size_t kSourceTagBytes = 16;            // of a SourceTag
 // Flags of a Routes entry.
 inline constexpr std::uint8_t kRouteFlagTool = 1u << 0;  // the PEIS is a tool
 

@@ -28,7 +28,7 @@ LDFLAGS=(-mcpu=cortex-m3 -mthumb -nostartfiles --specs=nano.specs --specs=nosys.
   -T "$HERE/lm3s6965.ld" -Wl,--gc-sections -Wl,--defsym=TINY_FLASH_BUDGET=$FLASH_BUDGET
   -Wl,--defsym=TINY_RAM_BUDGET=$RAM_BUDGET -Wl,--defsym=TINY_STACK_RESERVE=$STACK_RESERVE)
 
-SOURCES=("$TINY/src/tiny_tuple.c" "$TINY/src/tiny_kernel.c" "$TINY/src/tiny_app.c"
+SOURCES=("$TINY/src/tiny_tuple.c" "$TINY/src/tiny_kernel.c" "$TINY/src/tiny_mac.c" "$TINY/src/tiny_app.c"
   "$TINY/src/tiny_serial.c" "$HERE/main.c")
 
 # shellcheck source=../build_programs.sh

@@ -22,7 +22,9 @@ RAM_BUDGET=4096    # the ATmega128's 4 KB of internal SRAM
 STACK_RESERVE=${TINY_STACK_RESERVE:-512}
 # Table sizes for the AVR: 10 own tuples as in the seed; a node caches and
 # serves few remote tuples (the lamp and the blind each cache one value).
-DEFS=${TINY_AVR_DEFS:--DTINY_MAX_TUPLES=10 -DTINY_MAX_CACHE=1 -DTINY_MAX_SUBS=2 -DTINY_MAX_SUBSCRIBERS=3 -DTINY_MAX_NEIGHBORS=3}
+# A secured radio's keys stay in EEPROM (main.c), three senders at most (the
+# bridge and two more, as the EEPROM layout holds), 16-bit counters.
+DEFS=${TINY_AVR_DEFS:--DTINY_MAX_TUPLES=10 -DTINY_MAX_CACHE=1 -DTINY_MAX_SUBS=2 -DTINY_MAX_SUBSCRIBERS=3 -DTINY_MAX_NEIGHBORS=3 -DTINY_MAX_KEYS=3 -DTINY_KEYS_IN_HAL -DTINY_STATS_16}
 
 CFLAGS=(-std=c99 -Wall -Wextra -Wpedantic -Werror -Os -mmcu=$MCU -DF_CPU=16000000UL
   -ffunction-sections -fdata-sections -I"$TINY/include" -I"$HERE")
@@ -31,7 +33,7 @@ CFLAGS+=($DEFS)
 LDFLAGS=(-mmcu=$MCU -Wl,--gc-sections -Wl,--defsym=TINY_FLASH_BUDGET=$FLASH_BUDGET
   -Wl,--defsym=TINY_RAM_BUDGET=$RAM_BUDGET -Wl,--defsym=TINY_STACK_RESERVE=$STACK_RESERVE)
 
-SOURCES=("$TINY/src/tiny_tuple.c" "$TINY/src/tiny_kernel.c" "$TINY/src/tiny_app.c"
+SOURCES=("$TINY/src/tiny_tuple.c" "$TINY/src/tiny_kernel.c" "$TINY/src/tiny_mac.c" "$TINY/src/tiny_app.c"
   "$TINY/src/tiny_serial.c" "$HERE/avr_uart.c" "$HERE/main.c")
 LINK_EXTRA=("$HERE/budget.ld")
 # The device programs' report strings stay in flash (avr_report.h).

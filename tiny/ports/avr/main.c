@@ -12,7 +12,19 @@
  *    0..1000), the weight sensor ADC1 (in grams, 0..1023).
  *
  * The node id is the program's app_default_id() unless TINY_NODE_ID is set.
+ *
+ * A secured radio (docs/security.md) is provisioned in EEPROM; without the
+ * magic bytes the radio is open:
+ *   off size
+ *   0   2    magic 'P' 'S'
+ *   2   16   this node's key
+ *   18  2    the bridge's node id (little-endian): its frames and writes
+ *   20  16   the bridge's key
+ *   36  4    the frame counter (kept through the HAL by tiny_secure)
+ *   40  2+16 up to two more senders (id, key; id 0xFFFF: none), e.g. the
+ *            plant whose tuples the blind follows
  */
+#include <avr/eeprom.h>
 #include <avr/interrupt.h>
 #include <avr/io.h>
 
@@ -81,6 +93,61 @@ long tiny_port_sensor(uint8_t channel) {
   }
 }
 
+#define EE_MAGIC ((uint8_t *)0)
+#define EE_KEY ((uint8_t *)2)
+#define EE_BRIDGE ((uint16_t *)18)
+#define EE_BRIDGE_KEY ((uint8_t *)20)
+#define EE_COUNTER ((uint32_t *)36)
+#define EE_PEERS ((uint8_t *)40)
+#define EE_PEER_COUNT 2
+
+static int load_counter(void *ctx, uint32_t *value) {
+  (void)ctx;
+  *value = eeprom_read_dword(EE_COUNTER);
+  if (*value == 0xFFFFFFFFul) *value = 0; /* erased EEPROM */
+  return 0;
+}
+
+static int store_counter(void *ctx, uint32_t value) {
+  (void)ctx;
+  eeprom_update_dword(EE_COUNTER, value);
+  return 0;
+}
+
+/* Where the key of `node` is in EEPROM; NULL if it holds none. */
+static const uint8_t *eeprom_key_of(uint16_t node) {
+  uint8_t i;
+  if (node == kernel.id) return EE_KEY;
+  if (node == eeprom_read_word(EE_BRIDGE)) return EE_BRIDGE_KEY;
+  for (i = 0; i < EE_PEER_COUNT; ++i) {
+    const uint8_t *at = EE_PEERS + i * (2 + TINY_MAC_KEY_SIZE);
+    if (eeprom_read_word((const uint16_t *)at) == node) return at + 2;
+  }
+  return NULL;
+}
+
+/* The keys stay in EEPROM (TINY_KEYS_IN_HAL): read when a frame is sealed
+ * or checked, 16 bytes of RAM saved per key. */
+static int load_key(void *ctx, uint16_t node, uint8_t key[TINY_MAC_KEY_SIZE]) {
+  const uint8_t *at = eeprom_key_of(node);
+  (void)ctx;
+  if (at == NULL) return -1;
+  eeprom_read_block(key, at, TINY_MAC_KEY_SIZE);
+  return 0;
+}
+
+static void secure_from_eeprom(void) {
+  uint8_t i;
+  if (eeprom_read_byte(EE_MAGIC) != 'P' || eeprom_read_byte(EE_MAGIC + 1) != 'S') return;
+  if (tiny_secure(&kernel, NULL) != TINY_OK) return;
+  (void)tiny_trust(&kernel, eeprom_read_word(EE_BRIDGE), NULL, 1);
+  for (i = 0; i < EE_PEER_COUNT; ++i) {
+    uint16_t node = eeprom_read_word((const uint16_t *)(EE_PEERS + i * (2 + TINY_MAC_KEY_SIZE)));
+    if (node == 0xFFFFu || node == 0) continue;
+    (void)tiny_trust(&kernel, node, NULL, 0);
+  }
+}
+
 int main(void) {
   tiny_hal hal;
   uint16_t id = tiny_port_node_id();
@@ -91,7 +158,11 @@ int main(void) {
   sei();
   hal = avr_uart_hal();
   hal.now_ms = now_ms;
+  hal.load_counter = load_counter;
+  hal.store_counter = store_counter;
+  hal.load_key = load_key;
   tiny_init(&kernel, id, &hal);
+  secure_from_eeprom();
   app_setup(&kernel);
   for (;;) {
     uint32_t now = now_ms(0);

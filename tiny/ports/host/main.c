@@ -11,6 +11,11 @@
  * host-side adapter, e.g. peis-sim-sensors feeding the simulated home's
  * light model and objects; a channel it names wins over TINY_LIGHT and
  * TINY_WEIGHT, re-read at most every 100 ms).
+ * A secured radio (docs/security.md): TINY_KEY (32 hex digits) is this
+ * node's key; TINY_TRUST ("ID:KEY[:w] ...", separated by spaces or commas)
+ * the senders whose frames it takes, ":w" those whose writes it applies (the
+ * bridge); TINY_COUNTER_FILE keeps the frame counter across restarts
+ * (default /tmp/tiny-counter-<id>).
  * Every report is a line "<event> <value>" on stdout; the kernel counters go
  * to stderr at exit (SIGINT, SIGTERM or --run-ms). */
 #define _POSIX_C_SOURCE 200809L
@@ -84,22 +89,26 @@ long tiny_port_sensor(uint8_t channel) {
 
 static void print_stats(const tiny_kernel *k, const host_medium *m) {
   const tiny_stats *s = tiny_get_stats(k);
-  fprintf(
-      stderr,
-      "tiny %u: rx %lu ok %lu tx %lu send-errors %lu | dropped: truncated %lu bad-length %lu "
-      "bad-version %lu unknown-type %lu too-many-subkeys %lu bad-key %lu data-too-long %lu "
-      "bad-src %lu | accepted %lu stale %lu unwanted %lu not-for-me %lu cache-full %lu "
-      "subscribers-full %lu | medium: lost %lu duplicated %lu delayed %lu overflow %lu cut %lu\n",
-      (unsigned)k->id, (unsigned long)s->frames_rx, (unsigned long)s->frames_ok,
-      (unsigned long)s->frames_tx, (unsigned long)s->send_errors, (unsigned long)s->drop_truncated,
-      (unsigned long)s->drop_bad_length, (unsigned long)s->drop_bad_version,
-      (unsigned long)s->drop_unknown_type, (unsigned long)s->drop_too_many_subkeys,
-      (unsigned long)s->drop_bad_key, (unsigned long)s->drop_data_too_long,
-      (unsigned long)s->drop_bad_src, (unsigned long)s->tuples_accepted,
-      (unsigned long)s->tuples_stale, (unsigned long)s->tuples_unwanted,
-      (unsigned long)s->not_for_me, (unsigned long)s->cache_full,
-      (unsigned long)s->subscribers_full, (unsigned long)m->lost, (unsigned long)m->duplicated,
-      (unsigned long)m->delayed, (unsigned long)m->overflow, (unsigned long)m->cut);
+  fprintf(stderr,
+          "tiny %u: rx %lu ok %lu tx %lu send-errors %lu | dropped: truncated %lu bad-length %lu "
+          "bad-version %lu unknown-type %lu too-many-subkeys %lu bad-key %lu data-too-long %lu "
+          "bad-src %lu | accepted %lu stale %lu unwanted %lu not-for-me %lu cache-full %lu "
+          "subscribers-full %lu | secured: unsecured %lu unknown-sender %lu bad-mac %lu "
+          "replay %lu forged-owner %lu | medium: lost %lu duplicated %lu delayed %lu "
+          "overflow %lu cut %lu\n",
+          (unsigned)k->id, (unsigned long)s->frames_rx, (unsigned long)s->frames_ok,
+          (unsigned long)s->frames_tx, (unsigned long)s->send_errors,
+          (unsigned long)s->drop_truncated, (unsigned long)s->drop_bad_length,
+          (unsigned long)s->drop_bad_version, (unsigned long)s->drop_unknown_type,
+          (unsigned long)s->drop_too_many_subkeys, (unsigned long)s->drop_bad_key,
+          (unsigned long)s->drop_data_too_long, (unsigned long)s->drop_bad_src,
+          (unsigned long)s->tuples_accepted, (unsigned long)s->tuples_stale,
+          (unsigned long)s->tuples_unwanted, (unsigned long)s->not_for_me,
+          (unsigned long)s->cache_full, (unsigned long)s->subscribers_full,
+          (unsigned long)s->drop_unsecured, (unsigned long)s->drop_unknown_sender,
+          (unsigned long)s->drop_bad_mac, (unsigned long)s->drop_replay,
+          (unsigned long)s->drop_forged_owner, (unsigned long)m->lost, (unsigned long)m->duplicated,
+          (unsigned long)m->delayed, (unsigned long)m->overflow, (unsigned long)m->cut);
 }
 
 static int parse_arg(const char *v, unsigned long max, unsigned long *out) {
@@ -115,6 +124,94 @@ static int parse_arg(const char *v, unsigned long max, unsigned long *out) {
 
 static host_medium medium;
 static tiny_kernel kernel;
+static char counter_file[256];
+
+/* The frame counter of a secured radio, in a file (written whole, then
+ * renamed: a crash leaves the old value or the new one). */
+static int hal_load_counter(void *ctx, uint32_t *value) {
+  FILE *f = fopen(counter_file, "r");
+  unsigned long v = 0;
+  (void)ctx;
+  *value = 0;
+  if (f == NULL) return errno == ENOENT ? 0 : -1;
+  if (fscanf(f, "%lu", &v) == 1) *value = (uint32_t)v;
+  fclose(f);
+  return 0;
+}
+static int hal_store_counter(void *ctx, uint32_t value) {
+  char temp[300];
+  FILE *f;
+  (void)ctx;
+  snprintf(temp, sizeof temp, "%s.new", counter_file);
+  f = fopen(temp, "w");
+  if (f == NULL) return -1;
+  fprintf(f, "%lu\n", (unsigned long)value);
+  if (fclose(f) != 0) return -1;
+  return rename(temp, counter_file);
+}
+
+static int parse_key(const char *hex, size_t n, uint8_t key[TINY_MAC_KEY_SIZE]) {
+  size_t i;
+  if (n != 2 * TINY_MAC_KEY_SIZE) return -1;
+  for (i = 0; i < TINY_MAC_KEY_SIZE; ++i) {
+    unsigned v;
+    if (sscanf(hex + 2 * i, "%2x", &v) != 1) return -1;
+    key[i] = (uint8_t)v;
+  }
+  return 0;
+}
+
+/* TINY_KEY and TINY_TRUST: 0, or -1 with the reason printed. */
+static int secure_from_env(const char *program, unsigned long id) {
+  const char *key_text = getenv("TINY_KEY"), *trust = getenv("TINY_TRUST");
+  const char *file = getenv("TINY_COUNTER_FILE");
+  uint8_t key[TINY_MAC_KEY_SIZE];
+  if (key_text == NULL || *key_text == '\0') return 0;
+  if (file != NULL && *file != '\0') {
+    snprintf(counter_file, sizeof counter_file, "%s", file);
+  } else {
+    snprintf(counter_file, sizeof counter_file, "/tmp/tiny-counter-%lu", id);
+  }
+  if (parse_key(key_text, strlen(key_text), key) != 0) {
+    fprintf(stderr, "%s: TINY_KEY must be 32 hex digits\n", program);
+    return -1;
+  }
+  if (tiny_secure(&kernel, key) != TINY_OK) {
+    fprintf(stderr, "%s: cannot keep the frame counter in %s\n", program, counter_file);
+    return -1;
+  }
+  while (trust != NULL && *trust != '\0') {
+    unsigned long node;
+    char *end;
+    const char *hex;
+    size_t n;
+    uint8_t may_write = 0;
+    while (*trust == ' ' || *trust == ',') ++trust;
+    if (*trust == '\0') break;
+    node = strtoul(trust, &end, 10);
+    if (end == trust || *end != ':' || node == 0 || node > 0xFFFEul) {
+      fprintf(stderr, "%s: TINY_TRUST: expected ID:KEY[:w] at '%s'\n", program, trust);
+      return -1;
+    }
+    hex = end + 1;
+    n = strcspn(hex, ":, ");
+    if (parse_key(hex, n, key) != 0) {
+      fprintf(stderr, "%s: TINY_TRUST: the key of %lu must be 32 hex digits\n", program, node);
+      return -1;
+    }
+    trust = hex + n;
+    if (*trust == ':') {
+      may_write = trust[1] == 'w';
+      trust += 2;
+    }
+    if (tiny_trust(&kernel, (uint16_t)node, key, may_write) != TINY_OK) {
+      fprintf(stderr, "%s: TINY_TRUST: more than %d senders\n", program, TINY_MAX_KEYS);
+      return -1;
+    }
+  }
+  fprintf(stderr, "tiny %lu: secured radio (counter in %s)\n", id, counter_file);
+  return 0;
+}
 
 /* The tiny kernel's HAL on the simulated medium (ctx = the medium). */
 static int hal_send(void *ctx, const uint8_t *frame, uint8_t len) {
@@ -161,13 +258,17 @@ int main(int argc, char **argv) {
             cfg.base_port + cfg.slots - 1, strerror(errno));
     return 1;
   }
+  memset(&hal, 0, sizeof hal);
   hal.ctx = &medium;
   hal.send = hal_send;
+  hal.load_counter = hal_load_counter;
+  hal.store_counter = hal_store_counter;
   hal.recv = hal_recv;
   hal.now_ms = hal_now;
   start_ms = host_now_ms();
   tiny_init(&kernel, (uint16_t)id, &hal);
   fprintf(stderr, "tiny %lu on 127.0.0.1:%u\n", id, cfg.base_port + medium.slot);
+  if (secure_from_env(argv[0], id) != 0) return 2;
   app_setup(&kernel);
   while (!stop_requested) {
     struct pollfd pfd;

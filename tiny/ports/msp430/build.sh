@@ -46,7 +46,7 @@ CFLAGS+=($DEFS)
 LDFLAGS=(-T "$HERE/msp430f1611.ld" --gc-sections --defsym=TINY_FLASH_BUDGET=$FLASH_BUDGET
   --defsym=TINY_RAM_BUDGET=$RAM_BUDGET --defsym=TINY_STACK_RESERVE=$STACK_RESERVE)
 
-SOURCES=("$TINY/src/tiny_tuple.c" "$TINY/src/tiny_kernel.c" "$TINY/src/tiny_app.c"
+SOURCES=("$TINY/src/tiny_tuple.c" "$TINY/src/tiny_kernel.c" "$TINY/src/tiny_mac.c" "$TINY/src/tiny_app.c"
   "$TINY/src/tiny_serial.c" "$HERE/main.c" "$HERE/runtime.c")
 
 # shellcheck source=../build_programs.sh

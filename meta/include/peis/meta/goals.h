@@ -4,6 +4,7 @@
 // file, the command line, or built in code (docs/configuration.md, "Goals").
 #pragma once
 
+#include <map>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -35,7 +36,9 @@ struct RunGoal {
 };
 
 struct Constraints {
-  std::vector<std::string> avoidPeis;    // never plan on these PEIS
+  std::vector<std::string> avoidPeis;  // never plan on these PEIS
+  // Where each of avoidPeis was declared ("goals.yaml:4", "argument 3"), for errors.
+  std::map<std::string, std::string> avoidPeisOrigin;
   std::vector<InstanceSelector> avoid;   // never activate these instances
   std::vector<InstanceSelector> prefer;  // their own cost is waived when chosen
   bool operator==(const Constraints&) const = default;

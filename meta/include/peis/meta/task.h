@@ -25,6 +25,15 @@ struct Literal {
   bool operator==(const Literal&) const = default;
 };
 
+// What a failure of an action tells: when it fails with a cause containing
+// `cause`, these effects hold in the state replanned from (the photo came out
+// too dark: `not lit(?place)`). The planner itself never uses them.
+struct FailureEffect {
+  std::string cause;
+  std::vector<Literal> effects;
+  bool operator==(const FailureEffect&) const = default;
+};
+
 struct Action {
   std::string name;  // `GoTo`
   // Parameters in order, with their types: {"?robot", "robot"}. A type is a
@@ -36,6 +45,7 @@ struct Action {
   // Configuration goals needed while the action runs, in the goal syntax of
   // Goals::fromArguments, with parameters: `position(?robot)@?robot.mi-position`.
   std::vector<std::string> needs;
+  std::vector<FailureEffect> failures;  // `on-failure:` in the domain file
   bool operator==(const Action&) const = default;
 };
 

@@ -1,0 +1,40 @@
+// The security layer's YAML reading (credentials, trust roots, policies):
+// every error is peis::Error(InvalidConfig) naming `origin:line` and the
+// problem, and a file is written whole with mode 0600 (it may hold a secret).
+#pragma once
+
+#include <yaml-cpp/yaml.h>
+
+#include <initializer_list>
+#include <string>
+#include <string_view>
+
+namespace peis::security {
+
+class YamlFile {
+ public:
+  explicit YamlFile(std::string origin) : origin_(std::move(origin)) {}
+  // Reads and parses the file `origin` names.
+  YAML::Node load() const;
+  // Parses `text` (origin names where it came from).
+  YAML::Node parse(std::string_view text) const;
+  const std::string& origin() const { return origin_; }
+
+  [[noreturn]] void fail(const YAML::Node& at, const std::string& why) const;
+  void onlyKeys(const YAML::Node& map, std::initializer_list<const char*> known,
+                const std::string& what) const;
+  YAML::Node required(const YAML::Node& map, const char* key, const std::string& what) const;
+  std::string text(const YAML::Node& node, const std::string& what) const;
+  // A string of hex digits holding exactly `bytes` bytes.
+  std::string hexBytes(const YAML::Node& node, std::size_t bytes, const std::string& what) const;
+
+ private:
+  std::string origin_;
+};
+
+// Writes `text` to a new file `path` readable by its owner only; throws
+// Error(InvalidArgument) when it exists (unless `replace`) or cannot be
+// written.
+void writeSecretFile(const std::string& path, const std::string& text, bool replace = false);
+
+}  // namespace peis::security
