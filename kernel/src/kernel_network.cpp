@@ -234,6 +234,11 @@ void Kernel::Impl::onMessages(std::vector<wire::RoutedMessage>&& messages) {
               replication.onDeleted(source, body);
             } else if constexpr (std::is_same_v<T, wire::TupleWithheld>) {
               replication.onWithheld(std::move(body));
+            } else if constexpr (std::is_same_v<T, wire::KeyManifest>) {
+              if (const auto dropped = replication.onKeyManifest(source, body)) {
+                log::debug(id, "dropped " + std::to_string(dropped) + " tuple(s) of PEIS " +
+                                   std::to_string(source) + " it deleted unheard");
+              }
             } else if constexpr (std::is_same_v<T, wire::Write>) {
               if (writeGate && body.op == wire::WriteOp::Set && body.tuple.owner == id) {
                 // Refused before the gate sees it: a gate may act on it (a

@@ -1,6 +1,8 @@
 // Replication decisions; see replication.h.
 #include "replication.h"
 
+#include <algorithm>
+
 #include "peis/error.h"
 
 namespace peis {
@@ -72,16 +74,41 @@ void Replication::onSubscribe(PeisId subscriber, const wire::Subscribe& subscrib
       guard_.subscriptionFiltered(space_.self(), subscriber, subscribe.keyPattern);
     }
   }
+  // Does the subscriber hold exactly these values (same keys, same seqnos)?
+  std::uint64_t digest = 0;
+  for (const auto& tuple : matching) digest += wire::tupleDigest(tuple->key, tuple->seqno);
+  const bool same = subscribe.knownCount == matching.size() && subscribe.knownDigest == digest;
   if (!isNew) {
-    // A renewal: resend everything only if the subscriber is missing values.
-    std::uint64_t sum = 0;
-    for (const auto& tuple : matching) sum += tuple->seqno;
-    if (subscribe.knownSeqnoSum >= sum) return;
+    // A renewal: resend everything only if the subscriber's copy differs.
+    if (same) return;
     ++resyncs_;
   }
   for (const auto& tuple : matching) {
     pushUpdate(subscriber, tuple, subscribe.maxDataBytes);
   }
+  // It may also hold values deleted here that it never heard of.
+  if (subscribe.knownCount > 0 && !same) pushManifest(subscriber, subscribe.subscription, matching);
+}
+
+void Replication::pushManifest(PeisId destination, std::uint64_t subscription,
+                               const std::vector<TuplePtr>& matching) {
+  std::vector<std::uint64_t> hashes;
+  hashes.reserve(matching.size());
+  for (const auto& tuple : matching) hashes.push_back(wire::keyHash(tuple->key));
+  std::sort(hashes.begin(), hashes.end());
+  hashes.erase(std::unique(hashes.begin(), hashes.end()), hashes.end());
+  std::uint64_t first = 0;
+  std::size_t next = 0;
+  do {
+    const auto end = std::min(hashes.size(), next + wire::kMaxManifestHashes);
+    const bool last = end == hashes.size();
+    wire::KeyManifest manifest{
+        incarnation_, subscription, first, last ? UINT64_MAX : hashes[end - 1], {}};
+    manifest.keyHashes.assign(hashes.begin() + next, hashes.begin() + end);
+    first = manifest.rangeLast + 1;
+    next = end;
+    push(Outgoing{destination, nullptr, std::move(manifest)});
+  } while (next < hashes.size());
 }
 
 void Replication::onUnsubscribe(PeisId subscriber, std::uint64_t subscription) {
@@ -186,7 +213,11 @@ void Replication::sendSubscribe(LocalSubscription& local, PeisId owner) {
   auto& wireId = local.wireIds[owner];
   if (wireId != 0) push(Outgoing{owner, nullptr, wire::Unsubscribe{wireId}});
   wireId = nextWireId_++;
-  push(Outgoing{owner, nullptr, subscribeMessage(local, wireId)});
+  // What it holds already (from before a partition, say): the owner then
+  // also says which of those it deleted meanwhile.
+  auto message = subscribeMessage(local, wireId);
+  addKnown(message, Pattern(local.pattern.keyPattern(), owner));
+  push(Outgoing{owner, nullptr, std::move(message)});
   unanswered_.push_back(
       Unanswered{owner, wireId, std::chrono::steady_clock::now() + kUnansweredAfter, 0});
 }
@@ -278,19 +309,53 @@ bool Replication::onWithheld(wire::TupleWithheld&& withheld) {
                                                     withheld.limitedBy, withheld.limit});
 }
 
+std::size_t Replication::onKeyManifest(PeisId source, const wire::KeyManifest& manifest) {
+  if (!checkIncarnation(source, manifest.ownerIncarnation)) return 0;
+  const LocalSubscription* local = nullptr;
+  for (const auto& [handle, l] : local_) {
+    const auto id = l.wireIds.find(source);
+    if (id != l.wireIds.end() && id->second == manifest.subscription) local = &l;
+  }
+  if (!local) return 0;  // unsubscribed meanwhile, or an id of an earlier link
+  const auto named = [&](const std::string& key) {
+    const auto hash = wire::keyHash(key);
+    return hash < manifest.rangeFirst || hash > manifest.rangeLast ||
+           std::binary_search(manifest.keyHashes.begin(), manifest.keyHashes.end(), hash);
+  };
+  // Dropped as the owner would have: a deletion newer than the value held.
+  std::vector<std::pair<std::string, std::uint64_t>> gone, goneWithheld;
+  const Pattern ofOwner(local->pattern.keyPattern(), source);
+  for (const auto& tuple : space_.find(ofOwner))
+    if (!named(tuple->key)) gone.emplace_back(tuple->key, tuple->seqno + 1);
+  for (const auto& withheld : space_.findWithheld(ofOwner))
+    if (!named(withheld.tuple.key))
+      goneWithheld.emplace_back(withheld.tuple.key, withheld.tuple.seqno + 1);
+  std::size_t dropped = 0;
+  for (const auto& [key, seqno] : gone) dropped += space_.acceptDelete(source, key, seqno) ? 1 : 0;
+  for (const auto& [key, seqno] : goneWithheld) {
+    space_.acceptDelete(source, key, seqno);
+    dropped += space_.withheld(source, key) ? 0 : 1;
+  }
+  manifestDrops_ += dropped;
+  return dropped;
+}
+
+void Replication::addKnown(wire::Subscribe& message, const Pattern& ofOwner) const {
+  for (const auto& tuple : space_.find(ofOwner)) {
+    ++message.knownCount;
+    message.knownDigest += wire::tupleDigest(tuple->key, tuple->seqno);
+  }
+  for (const auto& withheld : space_.findWithheld(ofOwner)) {  // known, if not held
+    ++message.knownCount;
+    message.knownDigest += wire::tupleDigest(withheld.tuple.key, withheld.tuple.seqno);
+  }
+}
+
 void Replication::renew() {
   for (auto& [handle, local] : local_) {
     for (const auto& [owner, wireId] : local.wireIds) {
       auto renewal = subscribeMessage(local, wireId);
-      const Pattern ofOwner(local.pattern.keyPattern(), owner);
-      for (const auto& tuple : space_.find(ofOwner)) {
-        ++renewal.knownCount;
-        renewal.knownSeqnoSum += tuple->seqno;
-      }
-      for (const auto& withheld : space_.findWithheld(ofOwner)) {  // known, if not held
-        ++renewal.knownCount;
-        renewal.knownSeqnoSum += withheld.tuple.seqno;
-      }
+      addKnown(renewal, Pattern(local.pattern.keyPattern(), owner));
       push(Outgoing{owner, nullptr, std::move(renewal)});
     }
   }

@@ -66,6 +66,11 @@ class Replication {
   // A value over a data limit (from its owner or a relay on the way); false
   // if stale.
   bool onWithheld(wire::TupleWithheld&& withheld);
+  // An owner's list of the keys it holds, after a full sync: what this PEIS
+  // holds of that owner in the list's range and the subscription's pattern
+  // but the list does not name was deleted there; it is dropped here.
+  // Returns how many tuples were dropped.
+  std::size_t onKeyManifest(PeisId source, const wire::KeyManifest& manifest);
   // Re-sends every subscription (lease renewal).
   void renew();
   void onPeerUp(PeisId peer, std::uint64_t incarnation);
@@ -107,6 +112,8 @@ class Replication {
   std::uint64_t staleDropped() const { return staleDropped_; }
   // Renewals that showed a subscriber missing values, answered by a resync.
   std::uint64_t resyncs() const { return resyncs_; }
+  // Tuples dropped because the owner's KeyManifest no longer named them.
+  std::uint64_t manifestDrops() const { return manifestDrops_; }
   std::uint64_t incarnation() const { return incarnation_; }
 
  private:
@@ -144,11 +151,18 @@ class Replication {
   std::set<PeisId> reachable_;
   void push(Outgoing outgoing) { outbox_.push(std::move(outgoing)); }
   void pushUpdate(PeisId destination, const TuplePtr& tuple, std::uint32_t maxDataBytes);
+  // The keys of `matching`, as KeyManifests in hash ranges, for a subscriber.
+  void pushManifest(PeisId destination, std::uint64_t subscription,
+                    const std::vector<TuplePtr>& matching);
+  // What this PEIS holds or knows as withheld of an owner's tuples matching
+  // `ofOwner`: Subscribe's known count and known digest.
+  void addKnown(wire::Subscribe& message, const Pattern& ofOwner) const;
   Outbox outbox_;
   SubscriptionHandle nextHandle_ = 1;
   std::uint64_t nextWireId_ = 1;
   std::uint64_t staleDropped_ = 0;
   std::uint64_t resyncs_ = 0;
+  std::uint64_t manifestDrops_ = 0;
 };
 
 }  // namespace peis

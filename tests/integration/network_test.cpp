@@ -359,8 +359,9 @@ TEST_CASE("an owner restarted after kill -9 replaces its old incarnation's tuple
   CHECK(owner->running());
 }
 
-// (f) A - relay - B: the relay is killed, A writes while B cannot hear,
-// the relay comes back on the same port, and B converges to A's latest.
+// (f) A - relay - B: the relay is killed, A writes and deletes while B
+// cannot hear, the relay comes back on the same port, and B converges to
+// A's latest: the new values, and without the tuple A deleted meanwhile.
 TEST_CASE("a link dropped by a dead relay heals and the subscriber converges",
           "[integration][fault]") {
   const auto ecology = uniqueEcology("heal");
@@ -371,17 +372,21 @@ TEST_CASE("a link dropped by a dead relay heals and the subscriber converges",
   const auto relayInfo = awaitNode(*relay);
   peis::Kernel b(kernelOptions(ecology, "b", false, {localhost(relayInfo.port)}));
 
-  b.subscribe(peis::Pattern::exact(a.id(), "v"));
+  b.subscribe(peis::Pattern("*", a.id()));
   a.set("v", "1");
+  a.set("gone", "soon");
   StateReport report([&] { return "A sees: " + peersText(a) + "\nB sees: " + peersText(b); });
   REQUIRE_WAIT([&] { return valueOf(b, a.id(), "v") == "1"; }, kDeadline);
+  REQUIRE_WAIT([&] { return valueOf(b, a.id(), "gone") == "soon"; }, kDeadline);
 
   relay->kill(SIGKILL);
   REQUIRE(relay->wait(kDeadline) == -SIGKILL);
   REQUIRE_WAIT([&] { return !hasPeer(a, b.id()) && !hasPeer(b, a.id()); }, 10s);
   a.set("v", "2");
   a.set("v", "3");
+  REQUIRE(a.erase("gone"));
   CHECK(valueOf(b, a.id(), "v") != "3");
+  CHECK(valueOf(b, a.id(), "gone") == "soon");  // B did not hear of it
 
   auto flags = relayFlags;
   flags.push_back("--peis-port");
@@ -392,6 +397,8 @@ TEST_CASE("a link dropped by a dead relay heals and the subscriber converges",
   REQUIRE_WAIT([&] { return hasPeer(a, b.id()) && hasPeer(b, a.id()); }, kDeadline);
   REQUIRE_WAIT([&] { return valueOf(b, a.id(), "v") == "3"; }, kDeadline);
   CHECK(b.get(a.id(), "v")->seqno == a.get("v")->seqno);
+  // The full sync after the heal names the keys A holds: B drops the other.
+  REQUIRE_WAIT([&] { return valueOf(b, a.id(), "gone") == "<absent>"; }, kDeadline);
 }
 
 // (g) PEIS of different ecologies on one host never exchange tuples, even

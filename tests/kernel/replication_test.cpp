@@ -4,6 +4,7 @@
 // the decisions read from takeOutbox(). No sockets, no threads, no sleeping.
 #include "replication.h"
 
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <chrono>
 #include <cstdint>
@@ -99,13 +100,14 @@ wire::Subscribe subscribeMsg(std::uint64_t id, std::string pattern,
   return wire::Subscribe{id, leaseMs, owner, std::move(pattern)};
 }
 
-// A renewal that says what the subscriber holds: `count` tuples whose
-// seqnos add up to `sum`.
-wire::Subscribe renewalMsg(std::uint64_t id, std::string pattern, std::uint32_t count,
-                           std::uint64_t sum) {
+// A renewal that says what the subscriber holds: these keys at these seqnos.
+wire::Subscribe renewalMsg(std::uint64_t id, std::string pattern,
+                           const std::vector<std::pair<std::string, std::uint64_t>>& held) {
   auto message = subscribeMsg(id, std::move(pattern));
-  message.knownCount = count;
-  message.knownSeqnoSum = sum;
+  for (const auto& [key, seqno] : held) {
+    ++message.knownCount;
+    message.knownDigest += wire::tupleDigest(key, seqno);
+  }
   return message;
 }
 
@@ -113,6 +115,15 @@ template <typename T>
 const T* bodyAs(const Sent& out) {
   if (!out.body) return nullptr;
   return std::get_if<T>(&*out.body);
+}
+
+// The KeyManifests in `outbox` for `destination`.
+std::vector<wire::KeyManifest> manifests(const std::vector<Sent>& outbox, PeisId destination) {
+  std::vector<wire::KeyManifest> found;
+  for (const auto& out : outbox)
+    if (const auto* m = bodyAs<wire::KeyManifest>(out); m && out.destination == destination)
+      found.push_back(*m);
+  return found;
 }
 
 // The keys of the tuple updates in `outbox` for `destination`.
@@ -176,14 +187,24 @@ TEST_CASE("replication owner side: subscriptions, full sync, updates, leases",
 
     // Renewal with the same subscription id from a subscriber that holds
     // both values (seqnos 1 + 1): no second sync.
-    f.replication.onSubscribe(9, renewalMsg(1, "robot.*", 2, 2), f.now + 2s);
+    f.replication.onSubscribe(9, renewalMsg(1, "robot.*", {{"robot.x", 1}, {"robot.y", 1}}),
+                              f.now + 2s);
     CHECK(f.take().empty());
     CHECK(f.replication.resyncs() == 0);
 
-    // A renewal showing a value was lost in transit: everything again.
-    f.replication.onSubscribe(9, renewalMsg(1, "robot.*", 1, 1), f.now + 2s);
-    CHECK(updatedKeys(f.take(), 9) == std::multiset<std::string>{"robot.x", "robot.y"});
+    // A renewal showing a value was lost in transit: everything again, and
+    // the keys held here, for the subscriber to drop what it holds beyond.
+    f.replication.onSubscribe(9, renewalMsg(1, "robot.*", {{"robot.x", 1}}), f.now + 2s);
+    const auto resync = f.take();
+    CHECK(updatedKeys(resync, 9) == std::multiset<std::string>{"robot.x", "robot.y"});
     CHECK(f.replication.resyncs() == 1);
+    const auto manifest = manifests(resync, 9);
+    REQUIRE(manifest.size() == 1);
+    CHECK(manifest[0].rangeFirst == 0);
+    CHECK(manifest[0].rangeLast == UINT64_MAX);
+    auto expected = std::vector<std::uint64_t>{wire::keyHash("robot.x"), wire::keyHash("robot.y")};
+    std::sort(expected.begin(), expected.end());
+    CHECK(manifest[0].keyHashes == expected);
 
     // A second pattern of the same subscriber is a new subscription.
     f.replication.onSubscribe(9, subscribeMsg(2, "**", std::nullopt), f.now);
@@ -370,7 +391,8 @@ TEST_CASE("replication owner side: subscriptions, full sync, updates, leases",
     CHECK_FALSE(f.replication.expireLeases(f.now + kLease - 1ms));
     CHECK_FALSE(f.replication.expireLeases(f.now + kLease));
     // A renewal at +4 s moves the end of the lease to +10 s.
-    f.replication.onSubscribe(9, renewalMsg(1, "robot.*", 2, 2), f.now + 4s);
+    f.replication.onSubscribe(9, renewalMsg(1, "robot.*", {{"robot.x", 1}, {"robot.y", 1}}),
+                              f.now + 4s);
     CHECK(f.take().empty());
     CHECK_FALSE(f.replication.expireLeases(f.now + 4s + kLease));
     CHECK(f.replication.subscribers() == std::vector<PeisId>{9});
@@ -418,6 +440,118 @@ TEST_CASE("replication owner side: subscriptions, full sync, updates, leases",
     f.replication.onSubscribe(9, subscribeMsg(1, "robot.*"), f.now + 1s);
     CHECK(updatedKeys(f.take(), 9) == std::multiset<std::string>{"robot.x", "robot.y"});
   }
+}
+
+TEST_CASE("replication: a renewal whose seqnos add up but whose values differ brings a resync",
+          "[unit][replication]") {
+  Fixture f;
+  f.space.set("lock", "deploying");
+  f.space.set("lock", "done");  // seqno 2
+  f.space.set("event.2", "b");  // seqno 1
+  f.replication.onSubscribe(9, subscribeMsg(1, "**"), f.now);
+  f.take();
+  // The subscriber missed "done" and the deletion of event.1: it holds
+  // lock 1, event.1 1, event.2 1. The seqnos add up to 3 here and there,
+  // and a count alone would not tell lock 1 + event.2 1 from lock 2.
+  f.replication.onSubscribe(9, renewalMsg(1, "**", {{"lock", 1}, {"event.1", 1}, {"event.2", 1}}),
+                            f.now + 2s);
+  auto resync = f.take();
+  CHECK(updatedKeys(resync, 9) == std::multiset<std::string>{"lock", "event.2"});
+  CHECK(manifests(resync, 9).size() == 1);
+  CHECK(f.replication.resyncs() == 1);
+  f.replication.onSubscribe(9, renewalMsg(1, "**", {{"lock", 2}, {"event.1", 1}}), f.now + 4s);
+  CHECK(updatedKeys(f.take(), 9) == std::multiset<std::string>{"lock", "event.2"});
+  // Exactly what is held here: nothing.
+  f.replication.onSubscribe(9, renewalMsg(1, "**", {{"lock", 2}, {"event.2", 1}}), f.now + 6s);
+  CHECK(f.take().empty());
+  CHECK(f.replication.resyncs() == 2);
+}
+
+TEST_CASE("replication: a key manifest drops what the owner deleted unheard, in its range only",
+          "[unit][replication]") {
+  Fixture f;
+  f.replication.onPeerUp(2, 20);
+  f.replication.subscribe(Pattern("config.**", PeisId{2}));
+  f.replication.subscribe(Pattern("other.*", PeisId{2}));
+  const auto sent = f.take();
+  REQUIRE(sent.size() == 2);
+  const auto configId = bodyAs<wire::Subscribe>(sent[0])->subscription;
+  CHECK(bodyAs<wire::Subscribe>(sent[0])->knownCount == 0);  // holds nothing yet
+  for (const char* key : {"config.lock", "config.event.1", "config.event.2", "other.x"})
+    REQUIRE(f.replication.onUpdate(2, wire::TupleUpdate{20, remoteTuple(2, key, "v", 1)}));
+  REQUIRE(f.replication.onWithheld(
+      wire::TupleWithheld{20, 2, 10, 500, remoteTuple(2, "config.big", "", 3)}));
+  std::vector<std::string> deleted;
+  f.space.addCallback(Pattern("**", PeisId{2}), peis::kOnDelete,
+                      [&](EventKind, const Tuple& t) { deleted.push_back(t.key); });
+
+  // The owner holds config.lock and config.event.2 only.
+  std::vector<std::uint64_t> held = {wire::keyHash("config.lock"), wire::keyHash("config.event.2")};
+  std::sort(held.begin(), held.end());
+  // A stale manifest (another subscription id, another life) changes nothing.
+  CHECK(f.replication.onKeyManifest(2, wire::KeyManifest{20, configId + 7, 0, UINT64_MAX, held}) ==
+        0);
+  CHECK(f.replication.onKeyManifest(2, wire::KeyManifest{19, configId, 0, UINT64_MAX, held}) == 0);
+  // A manifest of a range that holds none of the stale keys drops nothing.
+  const auto event1 = wire::keyHash("config.event.1");
+  const auto big = wire::keyHash("config.big");
+  const auto lowest = std::min(event1, big);
+  if (lowest > 0) {
+    std::vector<std::uint64_t> below;
+    for (auto h : held)
+      if (h < lowest) below.push_back(h);
+    CHECK(f.replication.onKeyManifest(2, wire::KeyManifest{20, configId, 0, lowest - 1, below}) ==
+          0);
+  }
+  // The whole range: config.event.1 and the withheld config.big go; other.x,
+  // outside the subscription's pattern, stays.
+  CHECK(f.replication.onKeyManifest(2, wire::KeyManifest{20, configId, 0, UINT64_MAX, held}) == 2);
+  while (auto delivery = f.space.nextDelivery()) delivery->run();
+  CHECK(deleted == std::vector<std::string>{"config.event.1"});
+  CHECK_FALSE(f.space.get(2, "config.event.1"));
+  CHECK_FALSE(f.space.withheld(2, "config.big"));
+  CHECK(f.space.get(2, "config.lock"));
+  CHECK(f.space.get(2, "other.x"));
+  CHECK(f.replication.manifestDrops() == 2);
+
+  // The next Subscribe says what is held now, which the owner can check.
+  f.take();
+  f.replication.renew();
+  for (const auto& out : f.take()) {
+    const auto* renewal = bodyAs<wire::Subscribe>(out);
+    REQUIRE(renewal);
+    if (renewal->subscription != configId) continue;
+    CHECK(renewal->knownCount == 2);
+    CHECK(renewal->knownDigest ==
+          wire::tupleDigest("config.lock", 1) + wire::tupleDigest("config.event.2", 1));
+  }
+}
+
+TEST_CASE("replication: a full sync after a partition names the keys in ranges of 2048",
+          "[unit][replication]") {
+  Fixture f;
+  for (int i = 0; i < 5000; ++i) f.space.set("k." + std::to_string(i), "v");
+  // A fresh subscription from a PEIS that holds something already (it was
+  // cut off and came back): everything, and the manifest in three parts.
+  auto subscribe = renewalMsg(4, "k.*", {{"k.1", 1}, {"k.gone", 1}});
+  f.replication.onSubscribe(9, subscribe, f.now);
+  const auto sent = f.take();
+  CHECK(updatedKeys(sent, 9).size() == 5000);
+  const auto parts = manifests(sent, 9);
+  REQUIRE(parts.size() == 3);
+  CHECK(parts[0].rangeFirst == 0);
+  CHECK(parts[2].rangeLast == UINT64_MAX);
+  std::size_t hashes = 0;
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    CHECK(parts[i].keyHashes.size() <= wire::kMaxManifestHashes);
+    CHECK(std::is_sorted(parts[i].keyHashes.begin(), parts[i].keyHashes.end()));
+    if (i > 0) CHECK(parts[i].rangeFirst == parts[i - 1].rangeLast + 1);
+    hashes += parts[i].keyHashes.size();
+  }
+  CHECK(hashes == 5000);
+  // A fresh subscription from a PEIS holding nothing gets no manifest.
+  f.replication.onSubscribe(8, subscribeMsg(5, "k.*"), f.now);
+  CHECK(manifests(f.take(), 8).empty());
 }
 
 TEST_CASE("replication owner side: remote writes", "[unit][replication]") {
@@ -881,5 +1015,5 @@ TEST_CASE("replication: the subscriber side takes a TupleWithheld from the owner
   const auto renewals = f.take();
   REQUIRE(renewals.size() == 1);
   CHECK(bodyAs<wire::Subscribe>(renewals[0])->knownCount == 1);
-  CHECK(bodyAs<wire::Subscribe>(renewals[0])->knownSeqnoSum == 2);
+  CHECK(bodyAs<wire::Subscribe>(renewals[0])->knownDigest == wire::tupleDigest("big", 2));
 }

@@ -148,6 +148,8 @@ std::vector<std::pair<std::string, std::string>> sampleFrames() {
   frames.emplace_back("WriteResult", frameOf(RoutedMessage{env, WriteResult{9, 7, 0, "conflict"}}));
   auto head = sampleTuple();
   head.data.clear();
+  frames.emplace_back("KeyManifest",
+                      frameOf(RoutedMessage{env, KeyManifest{70, 5, 10, 900, {10, 11, 900}}}));
   frames.emplace_back("TupleWithheld",
                       frameOf(RoutedMessage{env, TupleWithheld{70, 3, 1000, 5000, head}}));
   return frames;
@@ -255,6 +257,12 @@ TEST_CASE("wire: routed messages round-trip", "[unit][wire]") {
     checkRoutedRoundTrip(
         RoutedMessage{env, TupleWithheld{~0ull, kMaxPeisId, 0, 0x7fffffffu, head}});
   }
+  SECTION("KeyManifest: empty, and a whole range of hashes") {
+    checkRoutedRoundTrip(RoutedMessage{env, KeyManifest{70, 5, 0, UINT64_MAX, {}}});
+    std::vector<std::uint64_t> hashes;
+    for (std::uint64_t i = 0; i < kMaxManifestHashes; ++i) hashes.push_back(i * 3 + 1);
+    checkRoutedRoundTrip(RoutedMessage{env, KeyManifest{~0ull, ~0ull, 1, 7000, hashes}});
+  }
   SECTION("WriteResult") {
     checkRoutedRoundTrip(RoutedMessage{env, WriteResult{1, 0, 5, ""}});
     checkRoutedRoundTrip(RoutedMessage{
@@ -328,7 +336,7 @@ TEST_CASE("wire: byte layout is big-endian and exact", "[unit][wire]") {
               "00 00 00 00 00"           // no owner, owner 0
               "00 03 61 2e 2a"           // str16 "a.*"
               "00 00 00 00"              // known count
-              "00 00 00 00 00 00 00 00"  // known seqno sum
+              "00 00 00 00 00 00 00 00"  // known digest
               "ff ff ff ff"));           // max data: none announced
   }
   SECTION("TupleUpdate with its tuple") {
@@ -451,7 +459,7 @@ TEST_CASE("wire: malformed frames are rejected with a reason", "[unit][wire]") {
   SECTION("empty frame") { CHECK(rejectBody(std::string_view{}) == "empty frame"); }
 
   SECTION("unknown message types") {
-    for (int type : {0, 11, 12, 15, 23, 24, 127, 255}) {
+    for (int type : {0, 11, 12, 15, 24, 127, 255}) {
       INFO("type " << type);
       std::string body(1, static_cast<char>(type));
       CHECK(rejectBody(body).find("unknown message type") != std::string::npos);
@@ -503,6 +511,18 @@ TEST_CASE("wire: malformed frames are rejected with a reason", "[unit][wire]") {
     frame.replace(lengthAt, 4, hex("ff ff ff ff"));
     CHECK(rejectBody(bodyOf(frame)).find("exceeds the limit") != std::string::npos);
     CHECK(rejectBody(bodyOf(frame), ~std::size_t{0}).find("truncated") != std::string::npos);
+  }
+
+  SECTION("a KeyManifest out of order, outside its range, too long or with an empty range") {
+    const auto reason = [&](KeyManifest m) { return rejectFrame(frameOf(RoutedMessage{env, m})); };
+    CHECK(reason(KeyManifest{1, 2, 0, 100, {5, 5}}).find("not ascending") != std::string::npos);
+    CHECK(reason(KeyManifest{1, 2, 0, 100, {7, 5}}).find("not ascending") != std::string::npos);
+    CHECK(reason(KeyManifest{1, 2, 10, 100, {5}}).find("outside its range") != std::string::npos);
+    CHECK(reason(KeyManifest{1, 2, 10, 100, {101}}).find("outside its range") != std::string::npos);
+    CHECK(reason(KeyManifest{1, 2, 100, 10, {}}).find("empty key hash range") != std::string::npos);
+    std::vector<std::uint64_t> tooMany(kMaxManifestHashes + 1);
+    for (std::size_t i = 0; i < tooMany.size(); ++i) tooMany[i] = i;
+    CHECK(reason(KeyManifest{1, 2, 0, UINT64_MAX, tooMany}).find("too many") != std::string::npos);
   }
 
   SECTION("bad keys in tuples, deletes and writes") {

@@ -788,12 +788,17 @@ TEST_CASE("tiny: plant and blind processes on the simulated UDP medium: the blin
       env.emplace_back("TINY_LIGHT", "900");  // too much sun for the plant
       Process blind({TINY_BLIND_PATH}, env);
       Process plant({TINY_PLANT_PATH}, env);
-      const bool closed =
-          waitFor([&] { return blind.out().find("blind closed 0\n") != std::string::npos; }, 20s);
+      // The plant prints its request after writing it, so the blind may
+      // report first: wait for both lines.
+      const bool closed = waitFor(
+          [&] {
+            return blind.out().find("blind closed 0\n") != std::string::npos &&
+                   plant.out().find("plant tilt 0\n") != std::string::npos;
+          },
+          20s);
       INFO(blind.describe());
       INFO(plant.describe());
       REQUIRE(closed);
-      CHECK(plant.out().find("plant tilt 0\n") != std::string::npos);
       blind.kill(SIGTERM);
       plant.kill(SIGTERM);
       CHECK(blind.wait(5s) == std::optional<int>(0));

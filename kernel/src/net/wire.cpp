@@ -376,6 +376,7 @@ MessageType typeOf(const RoutedBody& body) {
     MessageType operator()(const Write&) { return MessageType::Write; }
     MessageType operator()(const WriteResult&) { return MessageType::WriteResult; }
     MessageType operator()(const TupleWithheld&) { return MessageType::TupleWithheld; }
+    MessageType operator()(const KeyManifest&) { return MessageType::KeyManifest; }
   } visitor;
   return std::visit(visitor, body);
 }
@@ -389,7 +390,7 @@ struct BodyEncoder {
     w.i32(m.owner.value_or(0));
     w.str16(m.keyPattern);
     w.u32(m.knownCount);
-    w.u64(m.knownSeqnoSum);
+    w.u64(m.knownDigest);
     w.u32(m.maxDataBytes);
   }
   void operator()(const Unsubscribe& m) { w.u64(m.subscription); }
@@ -423,6 +424,14 @@ struct BodyEncoder {
     w.i32(m.limitedBy);
     w.u32(m.limit);
     writeTupleHead(w, m.tuple, m.dataBytes);
+  }
+  void operator()(const KeyManifest& m) {
+    w.u64(m.ownerIncarnation);
+    w.u64(m.subscription);
+    w.u64(m.rangeFirst);
+    w.u64(m.rangeLast);
+    w.u16(static_cast<std::uint16_t>(m.keyHashes.size()));
+    for (const auto hash : m.keyHashes) w.u64(hash);
   }
 };
 
@@ -517,7 +526,7 @@ RoutedBody decodeBody(MessageType type, Reader& r, std::size_t maxDataBytes) {
       }
       m.keyPattern = r.str16("key pattern");
       m.knownCount = r.u32("known count");
-      m.knownSeqnoSum = r.u64("known seqno sum");
+      m.knownDigest = r.u64("known digest");
       m.maxDataBytes = r.u32("max data");
       if (r.ok()) {
         if (auto problem = keyPatternProblem(m.keyPattern)) r.fail("bad key pattern: " + *problem);
@@ -565,6 +574,24 @@ RoutedBody decodeBody(MessageType type, Reader& r, std::size_t maxDataBytes) {
       m.dataBytes = readTupleHead(r, m.tuple);
       return m;
     }
+    case MessageType::KeyManifest: {
+      KeyManifest m;
+      m.ownerIncarnation = r.u64("incarnation");
+      m.subscription = r.u64("subscription");
+      m.rangeFirst = r.u64("range first");
+      m.rangeLast = r.u64("range last");
+      const auto count = r.u16("key hash count");
+      if (r.ok() && count > kMaxManifestHashes) r.fail("too many key hashes");
+      if (r.ok() && m.rangeFirst > m.rangeLast) r.fail("empty key hash range");
+      for (std::uint32_t i = 0; r.ok() && i < count; ++i) {
+        const auto hash = r.u64("key hash");
+        if (!r.ok()) break;
+        if (hash < m.rangeFirst || hash > m.rangeLast) r.fail("key hash outside its range");
+        if (!m.keyHashes.empty() && hash <= m.keyHashes.back()) r.fail("key hashes not ascending");
+        m.keyHashes.push_back(hash);
+      }
+      return m;
+    }
     default: {
       WriteResult m;
       m.request = r.u64("request");
@@ -577,10 +604,26 @@ RoutedBody decodeBody(MessageType type, Reader& r, std::size_t maxDataBytes) {
 }
 
 bool knownType(std::uint8_t type) {
-  return (type >= 1 && type <= 10) || (type >= 16 && type <= 22);
+  return (type >= 1 && type <= 10) || (type >= 16 && type <= 23);
 }
 
 }  // namespace
+
+std::uint64_t keyHash(std::string_view key) {
+  std::uint64_t hash = 0xcbf29ce484222325ull;  // FNV-1a, 64 bits
+  for (const unsigned char c : key) {
+    hash ^= c;
+    hash *= 0x100000001b3ull;
+  }
+  return hash;
+}
+
+std::uint64_t tupleDigest(std::string_view key, std::uint64_t seqno) {
+  std::uint64_t z = keyHash(key) + seqno * 0x9e3779b97f4a7c15ull;  // splitmix64's finalizer
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+  return z ^ (z >> 31);
+}
 
 void encode(const LinkMessage& message, std::string& out) { std::visit(LinkEncoder{out}, message); }
 

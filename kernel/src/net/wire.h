@@ -94,10 +94,11 @@ struct Subscribe {
   std::optional<PeisId> owner;
   std::string keyPattern;
   // What the subscriber already holds of the owner's matching tuples: how
-  // many, and the sum of their seqnos. An owner that holds a larger sum
-  // sends everything again (anti-entropy for values lost in transit).
+  // many, and their digest (tupleDigest summed). An owner whose own count or
+  // digest differs sends everything again, with a KeyManifest (anti-entropy
+  // for values and deletions lost in transit).
   std::uint32_t knownCount = 0;
-  std::uint64_t knownSeqnoSum = 0;
+  std::uint64_t knownDigest = 0;
   // The subscriber's data limit: a value over it is sent as TupleWithheld.
   std::uint32_t maxDataBytes = kNoDataLimit;
   bool operator==(const Subscribe&) const = default;
@@ -151,10 +152,30 @@ struct TupleWithheld {
   bool operator==(const TupleWithheld&) const = default;
 };
 
+// After a full sync, the keys the owner holds that the subscription
+// matches, as keyHash values in ascending order, one hash range at a time:
+// the subscriber drops what it holds of the owner in [rangeFirst, rangeLast]
+// that the list does not name (a deletion it missed).
+struct KeyManifest {
+  std::uint64_t ownerIncarnation = 0;
+  std::uint64_t subscription = 0;
+  std::uint64_t rangeFirst = 0;
+  std::uint64_t rangeLast = 0;
+  std::vector<std::uint64_t> keyHashes;
+  bool operator==(const KeyManifest&) const = default;
+};
+// Most hashes in one KeyManifest (16 KiB of them).
+inline constexpr std::size_t kMaxManifestHashes = 2048;
+
+// The hash of a key in a KeyManifest and a digest: 64-bit FNV-1a.
+std::uint64_t keyHash(std::string_view key);
+// One tuple's share of a Subscribe's known digest (the digest is the sum).
+std::uint64_t tupleDigest(std::string_view key, std::uint64_t seqno);
+
 using LinkMessage = std::variant<Hello, Ping, Pong, Routes, IdTaken, Leave, SeqnoRequest, Auth,
                                  Identity, SourceTag>;
 using RoutedBody = std::variant<Subscribe, Unsubscribe, TupleUpdate, TupleDeleted, Write,
-                                WriteResult, TupleWithheld>;
+                                WriteResult, TupleWithheld, KeyManifest>;
 struct RoutedMessage {
   Envelope envelope;
   RoutedBody body;

@@ -31,7 +31,7 @@
 //
 // Routed messages start with an envelope: i32 source | i32 destination | u8 ttl
 //   Subscribe    u64 subscription | u32 lease ms | u8 has owner | i32 owner |
-//                str16 key pattern | u32 known count | u64 known seqno sum |
+//                str16 key pattern | u32 known count | u64 known digest |
 //                u32 max data (the subscriber's data limit)
 //   Unsubscribe  u64 subscription
 //   TupleUpdate  u64 owner incarnation | tuple
@@ -43,6 +43,9 @@
 //                u64 seqno | str16 message
 //   TupleWithheld u64 owner incarnation | i32 limited by | u32 limit |
 //                tuple head (a value over the data limit of PEIS `limited by`)
+//   KeyManifest  u64 owner incarnation | u64 subscription | u64 range first |
+//                u64 range last | u16 count | count x u64 key hash (ascending,
+//                all within the range)
 //
 // tuple = i32 owner | i32 creator | str16 key | str8 mimetype | u8 encoding |
 //         i64 ts_write | i64 ts_user | i64 ts_expire (microseconds since the
@@ -102,6 +105,7 @@ enum class MessageType : std::uint8_t {
   Write = 20,
   WriteResult = 21,
   TupleWithheld = 22,
+  KeyManifest = 23,
 };
 
 inline constexpr bool isRouted(MessageType type) { return static_cast<std::uint8_t>(type) >= 16; }
