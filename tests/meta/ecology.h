@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "peis/kernel.h"
+#include "peis/log.h"
 #include "support/integration.h"
 #include "support/process.h"
 #include "support/wait_for.h"
@@ -34,6 +35,9 @@ struct MetaEcology {
     options.ecology = ecology;
     options.name = "observer";
     options.liveness = liveness;
+    // The observer's own links are noise next to a failure's report (a
+    // report cut short would show only them): warnings, unless PEIS_LOG asks.
+    if (!peis::log::levelFromEnvironment()) peis::log::setLevel(peis::log::Level::Warn);
     observer = std::make_unique<Kernel>(options);
   }
 
