@@ -188,8 +188,9 @@ TEST_CASE("a frozen sensor keeps its last reading until it thaws", "[fault]") {
   peis::test::TempDir dir("freeze");
   const std::string file = dir.file("plant.sensors");
   home.start(programPath("peis-sim-world"), {"--speed", "2"});
-  home.start(programPath("peis-sim-sensors"),
-             {"--peis-name", "sensors", "--light", "plant=" + file, "--lux-per-level", "2"});
+  auto& sensorsProcess =
+      home.start(programPath("peis-sim-sensors"),
+                 {"--peis-name", "sensors", "--light", "plant=" + file, "--lux-per-level", "2"});
   const peis::PeisId world = home.await("world"), sensors = home.await("sensors");
   REQUIRE(world != 0);
   REQUIRE(sensors != 0);
@@ -205,6 +206,10 @@ TEST_CASE("a frozen sensor keeps its last reading until it thaws", "[fault]") {
   INFO(home.describeAll());
   REQUIRE(bright);
   home.observer->set(sensors, "fault.freeze", "on");
+  // The set is acknowledged when stored; a reading already on its way may
+  // still be written until the sensor has taken the fault.
+  REQUIRE(waitFor([&] { return sensorsProcess.err().find("readings frozen") != std::string::npos; },
+                  30s));
   const long stuck = level();
   // Night falls; the frozen sensor still reads the sun.
   home.observer->subscribe(peis::Pattern("physics.light.plant", world));

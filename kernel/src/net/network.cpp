@@ -849,7 +849,18 @@ Link* Network::Impl::findLink(PeisId peer) const {
 }
 
 void Network::Impl::pingLoop() {
-  pingTimer_.expires_after(config_.pingPeriod);
+  // Every ping period, or sooner when a link's silence reaches the liveness
+  // time before then: a frozen peer is dropped when its time is up, not up
+  // to a ping period later. A link heard within the last few periods (any
+  // peer that lives answers our pings) never brings the wake forward.
+  // (A link already past it, kept by the checks below, waits for the period.)
+  const auto now = SteadyClock::now();
+  auto next = now + config_.pingPeriod;
+  for (const auto& link : links_) {
+    const auto dead = link->lastHeard_ + config_.deadAfter + std::chrono::milliseconds(1);
+    if (dead > now && dead < next) next = dead;
+  }
+  pingTimer_.expires_at(next);
   pingTimer_.async_wait([this](const boost::system::error_code& ec) {
     if (ec || stopped_) return;
     retryHeld();  // ages out frames whose source never became routable
