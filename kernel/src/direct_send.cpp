@@ -16,8 +16,8 @@ std::string DirectSend::spareFrames() { return std::exchange(lastFrames, std::st
 
 // The links' write locks are held from admit() to send(): the analysis
 // cannot follow locks held in a container.
-bool DirectSend::admit(const std::shared_ptr<net::Link>& link, std::size_t mostBacklog)
-    NO_THREAD_SAFETY_ANALYSIS {
+bool DirectSend::admit(const std::shared_ptr<net::Link>& link,
+                       std::size_t mostBacklog) NO_THREAD_SAFETY_ANALYSIS {
   if (std::find(links_.begin(), links_.end(), link) != links_.end()) return true;
   if (!link->lockForDirect(mostBacklog)) return false;
   links_.push_back(link);

@@ -86,6 +86,7 @@ struct Kernel::Impl {
   bool outboxLagging GUARDED_BY(mu) = false;
   std::uint64_t outboxTaken GUARDED_BY(mu) = 0;       // entries flush took: progress
   std::vector<PeerInfo> peerSnapshot GUARDED_BY(mu);  // what peers() returns
+  std::map<PeisId, PeisId> nextHops GUARDED_BY(mu);   // per peer, at the last topology change
   std::string publishedSubscribers GUARDED_BY(mu);
   WriteGate writeGate GUARDED_BY(mu);
   // Direct sends (docs/architecture.md, "Direct sends"): the link towards

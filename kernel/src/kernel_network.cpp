@@ -94,9 +94,18 @@ void Kernel::Impl::stopNetwork(std::function<void()> closed) {  // kernel thread
 
 void Kernel::Impl::snapshotPeers() {
   peerSnapshot.clear();
+  std::map<PeisId, PeisId> hops;
   for (const auto& peer : network->peers()) {
     peerSnapshot.push_back(PeerInfo{peer.id, peer.name, peer.hops, peer.incarnation, peer.tool});
+    hops[peer.id] = peer.nextHop;
+    // A route that goes another way may let a value pass that the old way
+    // withheld (a PEIS on it with a smaller data limit).
+    if (const auto before = nextHops.find(peer.id);
+        before != nextHops.end() && before->second != peer.nextHop) {
+      replication.onRouteChanged(peer.id);
+    }
   }
+  nextHops = std::move(hops);
 }
 
 void Kernel::Impl::refreshMembershipTuples() {

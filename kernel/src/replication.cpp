@@ -379,6 +379,17 @@ void Replication::onPeerUp(PeisId peer, std::uint64_t incarnation) {
   }
 }
 
+void Replication::onRouteChanged(PeisId owner) {
+  if (space_.forgetRelayWithheld(owner) == 0) return;
+  for (auto& [handle, local] : local_) {
+    const auto id = local.wireIds.find(owner);
+    if (id == local.wireIds.end()) continue;
+    auto renewal = subscribeMessage(local, id->second);
+    addKnown(renewal, Pattern(local.pattern.keyPattern(), owner));
+    push(Outgoing{owner, nullptr, std::move(renewal)});
+  }
+}
+
 void Replication::onPeerDown(PeisId peer) {
   reachable_.erase(peer);
   remote_.erase(peer);

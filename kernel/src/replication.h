@@ -74,6 +74,10 @@ class Replication {
   // Re-sends every subscription (lease renewal).
   void renew();
   void onPeerUp(PeisId peer, std::uint64_t incarnation);
+  // The route to `owner` goes another way now: what a PEIS on the old way
+  // withheld is forgotten and the owner asked again (a renewal that no
+  // longer counts it), so it comes if the new way lets it pass.
+  void onRouteChanged(PeisId owner);
   void onPeerDown(PeisId peer);
   // A fresh Subscribe that brought no value yet is sent again (same id, like
   // a renewal) kUnansweredRetries times, kUnansweredAfter and then twice

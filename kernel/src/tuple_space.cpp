@@ -364,6 +364,13 @@ std::vector<TupleSpace::Withheld> TupleSpace::findWithheld(const Pattern& patter
   return found;
 }
 
+std::size_t TupleSpace::forgetRelayWithheld(PeisId owner) {
+  return std::erase_if(withheld_, [&](const auto& entry) {
+    const auto& w = entry.second;
+    return entry.first.owner == owner && w.limitedBy != owner && w.limitedBy != self_;
+  });
+}
+
 std::string TupleSpace::Withheld::reason(PeisId self) const {
   const auto head =
       tuple.fullName() + " is " + std::to_string(dataBytes) + " bytes: too large for ";

@@ -114,6 +114,9 @@ class TupleSpace {
   std::optional<Withheld> withheld(PeisId owner, std::string_view key) const;
   // The live withheld records that match `pattern`.
   std::vector<Withheld> findWithheld(const Pattern& pattern) const;
+  // Forgets the withheld records of `owner` that a PEIS on the way made
+  // (limited by neither the owner nor this PEIS): the value may pass now.
+  std::size_t forgetRelayWithheld(PeisId owner);
 
   // Drops every cached tuple of another owner (it restarted or is gone),
   // queueing delete events; returns how many.

@@ -554,6 +554,34 @@ TEST_CASE("replication: a full sync after a partition names the keys in ranges o
   CHECK(manifests(f.take(), 8).empty());
 }
 
+TEST_CASE("replication: what a relay withheld is asked for again when the route changes",
+          "[unit][replication]") {
+  Fixture f;
+  f.replication.onPeerUp(2, 20);
+  f.replication.subscribe(Pattern("**", PeisId{2}));
+  f.take();
+  // One value withheld by relay 5 on the way, one by the owner for our limit.
+  REQUIRE(f.replication.onWithheld(
+      wire::TupleWithheld{20, 5, 64, 5000, remoteTuple(2, "picture", "", 3)}));
+  REQUIRE(f.replication.onWithheld(
+      wire::TupleWithheld{20, 2, 1000, 9000, remoteTuple(2, "map", "", 1)}));
+  // A route change to another owner changes nothing here.
+  f.replication.onRouteChanged(3);
+  CHECK(f.take().empty());
+  f.replication.onRouteChanged(2);
+  CHECK_FALSE(f.space.withheld(2, "picture"));
+  CHECK(f.space.withheld(2, "map"));  // the owner's own verdict stands
+  const auto sent = f.take();
+  REQUIRE(sent.size() == 1);
+  const auto* renewal = bodyAs<wire::Subscribe>(sent[0]);
+  REQUIRE(renewal);
+  CHECK(renewal->knownCount == 1);
+  CHECK(renewal->knownDigest == wire::tupleDigest("map", 1));
+  // Nothing left that a relay withheld: a second change sends nothing.
+  f.replication.onRouteChanged(2);
+  CHECK(f.take().empty());
+}
+
 TEST_CASE("replication owner side: remote writes", "[unit][replication]") {
   Fixture f;
   f.replication.onSubscribe(4, subscribeMsg(1, "**"), f.now);
