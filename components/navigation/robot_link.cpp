@@ -56,7 +56,9 @@ void RobotLink::apply(const NavOutput& out) {
   if (out.command && base_ != 0) {
     char buf[64];
     std::snprintf(buf, sizeof buf, "%.4f %.5f", out.command->v, out.command->w);
-    kernel_.setAsync(base_, "VelCommand", buf, {},
+    WriteOptions stamped;
+    stamped.ts_user = lastOdometryStamp_;  // the reading the command answers
+    kernel_.setAsync(base_, "VelCommand", buf, stamped,
                      [this](const std::optional<Error>& e, std::uint64_t) {
                        if (e && e->code() != ErrorCode::Timeout)
                          log(std::string("VelCommand refused: ") + e->what());
@@ -80,6 +82,7 @@ void RobotLink::onOdometry(const Tuple& t) {
   if (!v || v->size() < 3) return log("malformed Odometry '" + t.data.substr(0, 60) + "' ignored");
   const double time = exec::sensorSeconds(t).value_or(
       std::chrono::duration<double>(systemNow().time_since_epoch()).count());
+  lastOdometryStamp_ = t.ts_user;
   apply(navigator_.onOdometry({(*v)[0], (*v)[1], (*v)[2]}, time));
   const auto estimate = navigator_.localizer().estimate();
   if (!estimate) return;

@@ -51,6 +51,7 @@ class RobotLink {
   PeisId base_ = 0, mapServer_ = 0;
   std::optional<Tuple> map_, mapInfo_;
   PoseSource lastSource_ = PoseSource::None;
+  Timestamp lastOdometryStamp_ = kNoTime;
 };
 
 // "…-base" -> "…": the robot's name from its driver's.

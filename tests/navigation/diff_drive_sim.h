@@ -28,6 +28,9 @@ class DiffDriveSim {
   double headingDrift = 0;              // radians per metre of systematic drift
   const OccupancyGrid* grid = nullptr;  // walls for collisions and sonar
   std::vector<Disk> obstacles;
+  // Like peis-sim-world's bases: the bumper, once pressed, stays pressed
+  // until the robot moves again (turning in place does not release it).
+  bool latchBumper = false;
 
   // One step of dt seconds towards the command.
   void step(VelocityCommand command, double dt) {
@@ -39,15 +42,17 @@ class DiffDriveSim {
     next.x += ds * std::cos(truth_.theta + dth / 2);
     next.y += ds * std::sin(truth_.theta + dth / 2);
     next.theta = normalizeAngle(truth_.theta + dth);
-    bumper_ = collides(next.position());
-    if (bumper_) {
+    const bool blocked = collides(next.position());
+    const bool translates = std::abs(ds) > 1e-12;
+    bumper_ = blocked || (latchBumper && bumper_ && !translates);
+    if (blocked) {
       next.x = truth_.x;
       next.y = truth_.y;
       v_ = 0;
     }
     const double moved = distance(truth_.position(), next.position());
     std::normal_distribution<double> n(0, 1);
-    const double odoDs = (bumper_ ? 0 : ds) * (1 + odometryNoise * n(rng_));
+    const double odoDs = (blocked ? 0 : ds) * (1 + odometryNoise * n(rng_));
     const double odoDth = dth + odometryNoise * std::abs(dth) * n(rng_) + headingDrift * moved;
     odometry_.x += odoDs * std::cos(odometry_.theta + odoDth / 2);
     odometry_.y += odoDs * std::sin(odometry_.theta + odoDth / 2);

@@ -177,6 +177,33 @@ TEST_CASE("a robot that bumps into something it cannot see backs off and replans
   CHECK(loop.statuses.back().toString() == "success 1 GoTo(2.6, 3.0)");
 }
 
+TEST_CASE("a bumper still pressed after a back-off that could not move does not end each replan",
+          "[unit]") {
+  // peis-sim-world's base keeps its bumper pressed until the robot moves
+  // again. Wedged between something it cannot see ahead and something just
+  // behind (the back-off cannot move either), the robot must still try the
+  // new path, which turns away, instead of taking the pressed bumper for a
+  // new bump at once, replan after replan, until the goal fails `blocked`
+  // (and the next goal, from the same spot, the same way).
+  NavigatorOptions options;
+  Loop loop({0.8, 3.0, 0}, options);
+  loop.navigator.setGeometry(0.2, {}, 1.5, 0, 0);  // no sonars: only the bumper tells
+  loop.robot.latchBumper = true;
+  loop.robot.obstacles.push_back({{1.051, 3.0}, 0.05});  // touching the front rim
+  loop.robot.obstacles.push_back({{0.549, 3.0}, 0.05});  // touching the back rim
+  loop.take(loop.navigator.onGoal(*peis::exec::parseAction("GoTo(2.6, 3.0)"), 1));
+  const int steps = 90 / 0.05;
+  bool bumped = false;
+  for (int i = 0; i < steps && loop.navigator.state() != NavState::Idle; ++i) {
+    loop.robot.step(loop.command, 0.05);
+    bumped = bumped || loop.robot.bumper();
+    loop.navigator.onBumper(loop.robot.bumper());
+    loop.take(loop.navigator.onOdometry(loop.robot.odometry(), loop.robot.time()));
+  }
+  CHECK(bumped);
+  CHECK(loop.statuses.back().toString() == "success 1 GoTo(2.6, 3.0)");
+}
+
 TEST_CASE("with drifting odometry, fixes bring the robot to the goal; without them it misses",
           "[unit]") {
   auto finalError = [](int fixEvery) {

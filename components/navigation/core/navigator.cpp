@@ -93,6 +93,7 @@ void Navigator::finish(NavOutput& out, exec::ExecState state, const std::string&
   out.path = std::vector<Point2>{};
   goal_.reset();
   follower_.clear();
+  forwardSince_ = -1;
   state_ = NavState::Idle;
 }
 
@@ -246,7 +247,8 @@ NavOutput Navigator::onOdometry(const Pose2& odometry, double time) {
       }
       break;
     case NavState::Following: {
-      if (bumper_ && !push_) {
+      if (bumper_ && !push_ && forwardSince_ >= 0 &&
+          time - forwardSince_ >= options_.bumpGraceSeconds) {
         if (++replans_ > options_.maxReplans) {
           finish(out, exec::ExecState::Failed, "blocked");
           break;
@@ -274,6 +276,12 @@ NavOutput Navigator::onOdometry(const Pose2& odometry, double time) {
       if (follower_.arrived()) finish(out, exec::ExecState::Success);
       break;
     }
+  }
+  if (out.command) {
+    if (out.command->v <= 0)
+      forwardSince_ = -1;
+    else if (forwardSince_ < 0)
+      forwardSince_ = time;
   }
   return out;
 }

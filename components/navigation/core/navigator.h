@@ -38,6 +38,12 @@ struct NavigatorOptions {
   int maxReplans = 6;           // per goal, before `failed blocked`
   double backOffSeconds = 0.6;  // after a bump, reverse this long
   double backOffSpeed = 0.1;    // m/s
+  // A pressed bumper is a (new) bump only once the robot has been told to
+  // drive forward this long: a bumper that stays pressed after a back-off
+  // (a base that reports it until the robot moves, a back-off that could not
+  // move because the contact is beside or behind) must not end each replan
+  // at once, before the new path, which may lead away, was even tried.
+  double bumpGraceSeconds = 0.5;
   double obstacleRadius = 0.1;  // metres: what a sonar echo or a bump marks occupied
   double sonarLookAhead =
       0.35;  // metres beyond the rim: an unmapped echo this near, on the path, blocks it
@@ -126,6 +132,7 @@ class Navigator {
   bool push_ = false;
   std::vector<double> sonar_;
   double backOffUntil_ = 0;
+  double forwardSince_ = -1;  // sensor time since the commands drive forward (-1: they do not)
   double lastTime_ = 0;
 };
 
