@@ -13,6 +13,11 @@
 #include "security/policy.h"
 
 namespace peis {
+
+namespace {
+// Remote writes with at most this much data are sent again while unanswered.
+constexpr std::size_t kRetriedWriteBytes = 64 * 1024;
+}  // namespace
 namespace asio = boost::asio;
 
 namespace {
@@ -249,7 +254,10 @@ void Kernel::Impl::onMessages(std::vector<wire::RoutedMessage>&& messages) {
                                    std::to_string(source) + " it deleted unheard");
               }
             } else if constexpr (std::is_same_v<T, wire::Write>) {
-              if (writeGate && body.op == wire::WriteOp::Set && body.tuple.owner == id) {
+              if (!replication.firstTimeWrite(source, body.request)) {
+                // Sent again by a writer that missed the answer: answered
+                // once more if decided, else its first copy is being decided.
+              } else if (writeGate && body.op == wire::WriteOp::Set && body.tuple.owner == id) {
                 // Refused before the gate sees it: a gate may act on it (a
                 // tiny node's proxy sends it to the node).
                 if (auto refusal = replication.admit(source, body)) {
@@ -331,7 +339,20 @@ void Kernel::Impl::remoteWrite(wire::WriteOp op, PeisId owner, std::string_view 
       }
       return;
     }
-    write.request = remoteWrites.add(owner, std::move(done), options.writeTimeout);
+    // A write up to kRetriedWriteBytes is sent again while not answered (the
+    // owner answers a repeated request id once); a bigger one relies on its
+    // link alone rather than repeat megabytes on a slow one.
+    std::function<void(std::uint64_t)> resend;
+    if (write.tuple.data.size() <= kRetriedWriteBytes) {
+      resend = [this, copy = std::make_shared<const wire::Write>(write)](std::uint64_t request) {
+        auto again = *copy;
+        again.request = request;
+        if (network)
+          network->send(wire::RoutedMessage{wire::Envelope{0, again.tuple.owner, wire::kDefaultTtl},
+                                            std::move(again)});
+      };
+    }
+    write.request = remoteWrites.add(owner, std::move(done), options.writeTimeout, resend);
     const auto request = write.request;
     if (!network->send(wire::RoutedMessage{wire::Envelope{0, owner, wire::kDefaultTtl}, write})) {
       remoteWrites.complete(

@@ -2,18 +2,23 @@
 #include "remote_writes.h"
 
 #include <algorithm>
+#include <random>
 #include <vector>
 
 namespace peis {
 
 RemoteWrites::RemoteWrites(boost::asio::io_context& io,
                            std::function<void(std::string_view)> completionThrew)
-    : io_(io), completionThrew_(std::move(completionThrew)) {}
+    : io_(io), completionThrew_(std::move(completionThrew)) {
+  std::random_device seed;
+  nextRequest_ = ((std::uint64_t{seed()} << 32) ^ seed()) >> 1 | 1;  // room to count up
+}
 
-std::uint64_t RemoteWrites::add(PeisId owner, WriteDone done, std::chrono::milliseconds timeout) {
+std::uint64_t RemoteWrites::add(PeisId owner, WriteDone done, std::chrono::milliseconds timeout,
+                                std::function<void(std::uint64_t)> resend) {
   const auto request = nextRequest_++;
   auto timer = std::make_shared<boost::asio::steady_timer>(io_, timeout);
-  pending_[request] = Pending{std::move(done), timer, owner};
+  pending_[request] = Pending{std::move(done), timer, owner, nullptr};
   timer->async_wait([this, request, owner, timeout](const boost::system::error_code& ec) {
     if (ec) return;
     complete(request,
@@ -21,7 +26,26 @@ std::uint64_t RemoteWrites::add(PeisId owner, WriteDone done, std::chrono::milli
                                            std::to_string(timeout.count()) + " ms"),
              0);
   });
+  if (resend) {
+    scheduleRetry(request, kFirstRetry, std::chrono::steady_clock::now() + timeout,
+                  std::make_shared<std::function<void(std::uint64_t)>>(std::move(resend)));
+  }
   return request;
+}
+
+void RemoteWrites::scheduleRetry(std::uint64_t request, std::chrono::milliseconds after,
+                                 std::chrono::steady_clock::time_point deadline,
+                                 std::shared_ptr<std::function<void(std::uint64_t)>> resend) {
+  auto it = pending_.find(request);
+  if (it == pending_.end() || std::chrono::steady_clock::now() + after >= deadline) return;
+  auto retry = std::make_shared<boost::asio::steady_timer>(io_, after);
+  it->second.retryTimer = retry;
+  retry->async_wait([this, request, after, deadline, resend](const boost::system::error_code& ec) {
+    if (ec || !pending_.count(request)) return;
+    ++resent_;
+    (*resend)(request);
+    scheduleRetry(request, after * 2, deadline, resend);
+  });
 }
 
 void RemoteWrites::complete(std::uint64_t request, const std::optional<Error>& error,
@@ -31,6 +55,7 @@ void RemoteWrites::complete(std::uint64_t request, const std::optional<Error>& e
   auto pending = std::move(it->second);
   pending_.erase(it);
   pending.timer->cancel();
+  if (pending.retryTimer) pending.retryTimer->cancel();
   if (!pending.done) return;
   try {
     pending.done(error, seqno);

@@ -149,8 +149,32 @@ wire::WriteResult Replication::onWrite(PeisId source, const wire::Write& write) 
     result.status = static_cast<std::uint8_t>(static_cast<int>(e.code()) + 1);
     result.message = e.what();
   }
-  push(Outgoing{source, nullptr, result});
+  answerWrite(source, result);
   return result;
+}
+
+bool Replication::firstTimeWrite(PeisId source, std::uint64_t request) {
+  // Bounded in writers too (a short-lived tool PEIS each): one forgotten.
+  if (writesFrom_.size() >= kRememberedWriters && !writesFrom_.count(source))
+    writesFrom_.erase(writesFrom_.begin());
+  auto& recent = writesFrom_[source];
+  for (const auto& [id, result] : recent) {
+    if (id != request) continue;
+    ++repeatedWrites_;
+    if (result) push(Outgoing{source, nullptr, *result});
+    return false;
+  }
+  recent.emplace_back(request, std::nullopt);
+  if (recent.size() > kRememberedWrites) recent.pop_front();
+  return true;
+}
+
+void Replication::answerWrite(PeisId source, const wire::WriteResult& result) {
+  auto& recent = writesFrom_[source];
+  for (auto& [id, answer] : recent) {
+    if (id == result.request) answer = result;
+  }
+  push(Outgoing{source, nullptr, result});
 }
 
 std::optional<Error> Replication::admit(PeisId source, const wire::Write& write) {
@@ -163,7 +187,7 @@ void Replication::refuseWrite(PeisId source, const wire::Write& write, const Err
   result.request = write.request;
   result.status = static_cast<std::uint8_t>(static_cast<int>(error.code()) + 1);
   result.message = error.what();
-  push(Outgoing{source, nullptr, result});
+  answerWrite(source, result);
 }
 
 bool Replication::expireLeases(SteadyTime now) {
@@ -367,7 +391,10 @@ void Replication::onPeerUp(PeisId peer, std::uint64_t incarnation) {
   // subscriber that restarts numbers its subscriptions from 1 again, and
   // those of its old life must not pass for renewals (no full sync).
   const auto known = space_.incarnationOf(peer);
-  if (known != 0 && known != incarnation) remote_.erase(peer);  // of its previous life
+  if (known != 0 && known != incarnation) {  // of its previous life
+    remote_.erase(peer);
+    writesFrom_.erase(peer);
+  }
   space_.noteIncarnation(peer, incarnation);  // a newer one forgets its old tuples
   // A fresh subscription id makes the owner send everything that matches:
   // this PEIS converges after a join, a restart or a healed partition.
@@ -393,6 +420,8 @@ void Replication::onRouteChanged(PeisId owner) {
 void Replication::onPeerDown(PeisId peer) {
   reachable_.erase(peer);
   remote_.erase(peer);
+  // writesFrom_ stays: a writer cut off for a moment may send its write
+  // again once it is back, and must not have it applied twice.
   for (auto& [handle, local] : local_) local.wireIds.erase(peer);
 }
 

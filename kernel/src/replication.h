@@ -51,6 +51,16 @@ class Replication {
   wire::WriteResult onWrite(PeisId source, const wire::Write& write);
   // Answers a remote write with an error instead of applying it.
   void refuseWrite(PeisId source, const wire::Write& write, const Error& error);
+  // Whether a remote write is seen for the first time (it is then noted as
+  // being decided). A writer sends a write again when it misses the answer:
+  // a repeat is answered again with the result sent before, or ignored
+  // while the first copy is being decided (write gate). The last
+  // kRememberedWrites request ids of each writer are remembered.
+  bool firstTimeWrite(PeisId source, std::uint64_t request);
+  static constexpr std::size_t kRememberedWrites = 256;
+  static constexpr std::size_t kRememberedWriters = 1024;
+  // Repeated writes answered again or ignored.
+  std::uint64_t repeatedWrites() const { return repeatedWrites_; }
   // Drops subscriptions whose lease ran out; true if any was dropped.
   bool expireLeases(SteadyTime now);
   std::vector<PeisId> subscribers() const;
@@ -149,6 +159,11 @@ class Replication {
   std::uint64_t incarnation_;
   std::chrono::milliseconds lease_;
   std::map<PeisId, std::map<std::uint64_t, RemoteSubscription>> remote_;
+  // Per writer, its latest request ids and their results (none: deciding).
+  std::map<PeisId, std::deque<std::pair<std::uint64_t, std::optional<wire::WriteResult>>>>
+      writesFrom_;
+  std::uint64_t repeatedWrites_ = 0;
+  void answerWrite(PeisId source, const wire::WriteResult& result);
   std::map<SubscriptionHandle, LocalSubscription> local_;
   std::map<CallbackId, SubscriptionHandle> indirectTargets_;
   std::map<CallbackId, SubscriptionHandle> indirectMetas_;

@@ -106,10 +106,12 @@ TEST_CASE("with goal tuples, the executor posts a step's needs and the configura
   home.observer->subscribe(peis::Pattern("config.goal.*", planner));
   home.observer->subscribe(peis::Pattern("plan.status", planner));
   // The goal is posted where a configurator finds it…
+  // (The executor writes its status after the goal: wait for both.)
   REQUIRE(waitFor(
       [&] {
         const auto goal = home.observer->get(planner, "config.goal.planner");
-        return goal && goal->data == "position(pippi)@Pippi.mi-position\n";
+        return goal && goal->data == "position(pippi)@Pippi.mi-position\n" &&
+               home.observer->get(planner, "plan.status");
       },
       60s));
   // …and nothing is dispatched until it is deployed.

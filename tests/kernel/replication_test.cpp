@@ -582,6 +582,48 @@ TEST_CASE("replication: what a relay withheld is asked for again when the route 
   CHECK(f.take().empty());
 }
 
+TEST_CASE("replication: a write sent again is applied once and answered again",
+          "[unit][replication]") {
+  Fixture f;
+  // The first copy is decided (as the Kernel does: asked first, then applied).
+  REQUIRE(f.replication.firstTimeWrite(9, 40));
+  const auto first = f.replication.onWrite(9, writeMsg(40, wire::WriteOp::Append, "log", "a", 0u));
+  CHECK(first.status == 0);
+  f.take();
+  // The writer missed the answer and sends the write again: not applied a
+  // second time (an append on if-seqno 0 would now conflict), answered again.
+  CHECK_FALSE(f.replication.firstTimeWrite(9, 40));
+  CHECK(onlyResult(f.take(), 9) == first);
+  CHECK(f.space.get(kSelf, "log")->data == "a");
+  CHECK(f.replication.repeatedWrites() == 1);
+  // The same request id from another writer is another write.
+  CHECK(f.replication.firstTimeWrite(8, 40));
+  // A repeat of a write still being decided (held by a write gate) is
+  // ignored: the answer to the first copy answers both.
+  REQUIRE(f.replication.firstTimeWrite(9, 41));
+  CHECK_FALSE(f.replication.firstTimeWrite(9, 41));
+  CHECK(f.take().empty());
+  f.replication.refuseWrite(9, writeMsg(41, wire::WriteOp::Set, "x", "1"),
+                            peis::Error(ErrorCode::Refused, "no"));
+  const auto refused = onlyResult(f.take(), 9);
+  CHECK_FALSE(f.replication.firstTimeWrite(9, 41));
+  CHECK(onlyResult(f.take(), 9) == refused);
+  // A writer cut off for a moment keeps its answers; its next life does not.
+  f.replication.onPeerUp(9, 90);
+  f.replication.onPeerDown(9);
+  f.take();
+  CHECK_FALSE(f.replication.firstTimeWrite(9, 40));
+  f.take();
+  f.replication.onPeerUp(9, 91);
+  f.take();
+  CHECK(f.replication.firstTimeWrite(9, 40));
+  // Only the latest kRememberedWrites of a writer are remembered.
+  for (std::uint64_t r = 1000; r < 1000 + Replication::kRememberedWrites; ++r)
+    CHECK(f.replication.firstTimeWrite(7, r));
+  CHECK(f.replication.firstTimeWrite(7, 2000));
+  CHECK(f.replication.firstTimeWrite(7, 1000));  // forgotten: taken as new
+}
+
 TEST_CASE("replication owner side: remote writes", "[unit][replication]") {
   Fixture f;
   f.replication.onSubscribe(4, subscribeMsg(1, "**"), f.now);
