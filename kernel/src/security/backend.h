@@ -4,12 +4,12 @@
 // module with dlopen the first time a secured ecology (or `peis keys`)
 // needs one of them (backend(), backend_loader.cpp), so a PEIS of an open
 // ecology never maps those libraries nor initialises them
-// (docs/architecture.md, "The security module"; docs/performance.md,
+// (docs/security.md, "The security module"; docs/performance.md,
 // "Memory per PEIS").
 //
-// Only this header is shared by the kernel and the module; it names no
-// type of the libraries. Every function returns its error instead of
-// throwing (no exception crosses the module's boundary).
+// Only this header (and yaml_node.h) is shared by the kernel and the
+// module; it names no type of the libraries. Every function returns its
+// error instead of throwing (no exception crosses the module's boundary).
 #pragma once
 
 #include <cstddef>

@@ -1,5 +1,5 @@
 // Loading the security module on first use; see backend.h. Where it looks,
-// in order (docs/architecture.md, "The security module"):
+// in order (docs/security.md, "The security module"):
 //   1. $PEIS_SECURITY_MODULE, when set (and nowhere else then);
 //   2. beside a shared libpeis-kernel: <its dir>/peis/libpeis-security.so;
 //   3. beside the running program, as installed: <bin>/../<libdir>/peis/;
