@@ -21,11 +21,9 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <functional>
 #include <map>
 #include <mutex>
-#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -298,13 +296,12 @@ Throughput streamTo(std::size_t bytes, int sinks, const std::string& ecology,
         for (int i = 0; i < sinks; ++i) {
           auto r = kernel.get(100 + i, "received");
           if (!r) return false;
-          std::istringstream in(r->data);
-          std::uint64_t count, seqno;
-          std::int64_t first, at;
-          in >> count >> seqno >> first >> at;
+          unsigned long long count = 0, seqno = 0;
+          long long first = 0, at = 0;
+          std::sscanf(r->data.c_str(), "%llu %llu %lld %lld", &count, &seqno, &first, &at);
           if (seqno != last) return false;
           delivered += count;
-          latest = std::max(latest, at);
+          latest = std::max<std::int64_t>(latest, at);
         }
         result.delivered = delivered;
         lastAt = latest;
@@ -343,27 +340,42 @@ struct ScaleResult {
   double privateKib = -1;  // pages only this process uses
 };
 
+// The /proc files are read with stdio: every PEIS of the scale run is this
+// program, and iostreams would link libstdc++'s locale code into it, whose
+// pages each PEIS would map (docs/performance.md, "Memory per PEIS").
+std::string procText(pid_t pid, const char* file) {
+  std::string text;
+  std::FILE* in = std::fopen(("/proc/" + std::to_string(pid) + "/" + file).c_str(), "r");
+  if (in == nullptr) return text;
+  char chunk[4096];
+  std::size_t n = 0;
+  while ((n = std::fread(chunk, 1, sizeof chunk, in)) > 0) text.append(chunk, n);
+  std::fclose(in);
+  return text;
+}
+
 long procTicks(pid_t pid) {
-  std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
-  std::string text((std::istreambuf_iterator<char>(stat)), {});
+  const auto text = procText(pid, "stat");
   const auto close = text.rfind(')');
   if (close == std::string::npos) return 0;
-  std::istringstream in(text.substr(close + 2));
-  std::string field;
-  long utime = 0, stime = 0;
-  for (int i = 3; i <= 15 && in >> field; ++i) {
-    if (i == 14) utime = std::stol(field);
-    if (i == 15) stime = std::stol(field);
+  // Fields 14 and 15 (utime, stime); field 3 follows the ") ".
+  unsigned long utime = 0, stime = 0;
+  if (std::sscanf(text.c_str() + close + 1, " %*c %*d %*d %*d %*d %*d %*u %*u %*u %*u %*u %lu %lu",
+                  &utime, &stime) != 2) {
+    return 0;
   }
-  return utime + stime;
+  return static_cast<long>(utime + stime);
 }
 
 // A "Name:   123 kB" field of a /proc file, in KiB (0 if absent).
 long procKib(pid_t pid, const char* file, const std::string& field) {
-  std::ifstream in("/proc/" + std::to_string(pid) + "/" + file);
-  std::string line;
-  while (std::getline(in, line)) {
-    if (line.rfind(field, 0) == 0) return std::stol(line.substr(field.size()));
+  const auto text = procText(pid, file);
+  for (std::size_t at = 0; at < text.size();) {
+    const auto end = std::min(text.find('\n', at), text.size());
+    if (text.compare(at, field.size(), field) == 0) {
+      return std::strtol(text.c_str() + at + field.size(), nullptr, 10);
+    }
+    at = end + 1;
   }
   return 0;
 }

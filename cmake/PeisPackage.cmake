@@ -50,11 +50,13 @@ function(peis_provide_package)
                                    COMPATIBILITY ${PEIS_PACKAGE_COMPATIBILITY})
 endfunction()
 
-# The dependencies a consumer must find: Threads always; yaml-cpp,
-# libsodium and OpenSSL's libcrypto only when the libraries are static (a
-# shared one carries its own links: the kernel's security layer uses all
-# three, the component library yaml-cpp). Boost is header-only and private to the kernel's sources:
-# nothing of it is needed to build or link against the package.
+# The dependencies a consumer must find: Threads always; yaml-cpp only when
+# the libraries are static (the component library's; a shared one carries
+# its own links). The kernel links none: libsodium, OpenSSL's libcrypto and
+# yaml-cpp are the security module's (<libdir>/peis/libpeis-security.so),
+# which the kernel loads at run time in a secured ecology. Boost is
+# header-only and private to the kernel's sources: nothing of it is needed
+# to build or link against the package.
 function(peis_install_package)
   set(config_dir ${CMAKE_INSTALL_LIBDIR}/cmake/peis)
   get_target_property(component_type peis_component TYPE)
@@ -63,10 +65,10 @@ function(peis_install_package)
   set(kernel_libs "-L\${libdir} -lpeis-kernel")
   set(component_requires "peis-kernel = ${PROJECT_VERSION}")
   if(component_type STREQUAL "STATIC_LIBRARY")
-    set(PEIS_CONFIG_DEPENDENCIES "find_dependency(yaml-cpp)\nfind_dependency(OpenSSL COMPONENTS Crypto)")
+    set(PEIS_CONFIG_DEPENDENCIES "find_dependency(yaml-cpp)")
     set(PEIS_PC_KERNEL_LIBS "${kernel_libs} -pthread")
     set(PEIS_PC_KERNEL_LIBS_PRIVATE "")
-    set(PEIS_PC_KERNEL_REQUIRES "libsodium, libcrypto, yaml-cpp")
+    set(PEIS_PC_KERNEL_REQUIRES "")
     set(PEIS_PC_KERNEL_REQUIRES_PRIVATE "")
     set(PEIS_PC_COMPONENT_REQUIRES "${component_requires}, yaml-cpp")
     set(PEIS_PC_COMPONENT_REQUIRES_PRIVATE "")
@@ -75,7 +77,7 @@ function(peis_install_package)
     set(PEIS_PC_KERNEL_LIBS "${kernel_libs}")
     set(PEIS_PC_KERNEL_LIBS_PRIVATE "-pthread")
     set(PEIS_PC_KERNEL_REQUIRES "")
-    set(PEIS_PC_KERNEL_REQUIRES_PRIVATE "libsodium, libcrypto, yaml-cpp")
+    set(PEIS_PC_KERNEL_REQUIRES_PRIVATE "")
     set(PEIS_PC_COMPONENT_REQUIRES "${component_requires}")
     set(PEIS_PC_COMPONENT_REQUIRES_PRIVATE "yaml-cpp")
   endif()

@@ -9,9 +9,9 @@
 #include <algorithm>
 #include <boost/asio/post.hpp>
 #include <boost/asio/signal_set.hpp>
+#include <cstdio>
 #include <cstdlib>
 #include <future>
-#include <iostream>
 #include <random>
 
 #include "kernel_impl.h"
@@ -78,14 +78,20 @@ Options parseOrExit(int& argc, char** argv) {
   try {
     auto options = Options::fromArgs(argc, argv);
     if (options.help) {
-      std::cout << "Usage: " << (options.programName.empty() ? "program" : options.programName)
-                << " [options]\n\n"
-                << Options::helpText();
+      // stdio, not <iostream>: its static initialiser (the standard
+      // streams and every facet of the classic locale) would run in every
+      // PEIS, and fault in pages of a statically linked libstdc++ that a
+      // PEIS otherwise never uses (docs/performance.md, "Memory per PEIS").
+      const auto usage =
+          "Usage: " + (options.programName.empty() ? "program" : options.programName) +
+          " [options]\n\n" + Options::helpText();
+      std::fputs(usage.c_str(), stdout);
+      std::fflush(stdout);
       std::exit(0);
     }
     return options;
   } catch (const Error& e) {
-    std::cerr << (argc > 0 && argv[0] ? argv[0] : "peis") << ": " << e.what() << "\n";
+    std::fprintf(stderr, "%s: %s\n", argc > 0 && argv[0] ? argv[0] : "peis", e.what());
     std::exit(2);
   }
 }

@@ -69,14 +69,24 @@ if [ "$target" = wire ]; then
   "$cxx" "${flags[@]}" "$root/tests/fuzz/write_seeds.cpp" "${sources[@]}" -o "$out/write_seeds"
   "$out/write_seeds" "$out/seeds"
 elif [ "$target" = secured ]; then
-  flags=(-std=c++20 -O1 -g -I "$root/kernel/include" -I "$root/kernel/src")
+  # The cryptography is the security module's, which the kernel's loader
+  # (backend_loader.cpp) opens: the one this build made, of its version.
+  module=$(find "$build/.." -path '*/lib/peis/libpeis-security.so' -print -quit)
+  version=$(sed -n 's/^CMAKE_PROJECT_VERSION:STATIC=//p' "$build/../CMakeCache.txt")
+  [ -n "$module" ] && [ -n "$version" ] || skip "no security module (lib/peis/libpeis-security.so) in $build/.."
+  export PEIS_SECURITY_MODULE=$module
+  flags=(-std=c++20 -O1 -g -I "$root/kernel/include" -I "$root/kernel/src"
+    -DPEIS_VERSION="\"$version\"" -DPEIS_SECURITY_MODULE_NAME='"libpeis-security.so"'
+    -DPEIS_SECURITY_MODULE_FROM_BIN='"."' -DPEIS_SECURITY_MODULE_BUILD_PATH="\"$module\""
+    -DPEIS_SECURITY_MODULE_INSTALL_PATH="\"$module\"")
   sources=("$root/kernel/src/security/certificate.cpp" "$root/kernel/src/security/identity.cpp"
     "$root/kernel/src/security/link_handshake.cpp" "$root/kernel/src/security/record_cipher.cpp"
     "$root/kernel/src/security/crypto.cpp" "$root/kernel/src/security/credentials.cpp"
-    "$root/kernel/src/security/yaml_file.cpp" "$root/kernel/src/key.cpp")
+    "$root/kernel/src/security/yaml_file.cpp" "$root/kernel/src/security/backend_loader.cpp"
+    "$root/kernel/src/key.cpp")
   echo "==> compiling the secured-link fuzzer with $cxx"
   "$cxx" "${flags[@]}" "${sanitize[@]}" "$root/tests/fuzz/secured_fuzz.cpp" "${sources[@]}" \
-    -lsodium -lcrypto -lyaml-cpp -o "$out/fuzzer"
+    -o "$out/fuzzer"
 else
   cc=${cxx/clang++/clang}
   echo "==> compiling the tiny frame fuzzer with $cc"

@@ -77,7 +77,7 @@ std::string trustRootText(const TrustRoot& t) {
 Credentials readCredentials(const std::string& file) {
   YamlFile yaml(file);
   const auto root = yaml.load();
-  if (!root.IsMap() || !root["peis-credentials"]) {
+  if (!root.isMap() || !root["peis-credentials"]) {
     yaml.fail(root, "not a PEIS credentials file (no 'peis-credentials'; see docs/security.md)");
   }
   yaml.onlyKeys(root, {"peis-credentials", "root", "certificate", "secret-key"},

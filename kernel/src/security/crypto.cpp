@@ -1,9 +1,8 @@
-// The libsodium operations the security layer uses; see crypto.h.
+// The cryptographic operations the security layer uses, each one call into
+// the security module (libsodium's; backend.h); see crypto.h.
 #include "security/crypto.h"
 
-#include <sodium.h>
-
-#include <stdexcept>
+#include "security/backend.h"
 
 namespace peis::security {
 
@@ -14,63 +13,55 @@ const unsigned char* bytes(std::string_view s) {
 unsigned char* bytes(std::string& s) { return reinterpret_cast<unsigned char*>(s.data()); }
 }  // namespace
 
-void initCrypto() {
-  // sodium_init is thread-safe and returns 1 once it ran before.
-  if (sodium_init() < 0) throw std::runtime_error("libsodium cannot be initialised");
-}
+void initCrypto() { backend(); }
 
 SignKeyPair newSignKeyPair() {
-  initCrypto();
-  SignKeyPair pair{std::string(crypto_sign_PUBLICKEYBYTES, '\0'),
-                   std::string(crypto_sign_SECRETKEYBYTES, '\0')};
-  crypto_sign_keypair(bytes(pair.publicKey), bytes(pair.secretKey));
+  SignKeyPair pair{std::string(kSignPublicKeyBytes, '\0'), std::string(kSignSecretKeyBytes, '\0')};
+  backend().signKeyPair(bytes(pair.publicKey), bytes(pair.secretKey));
   return pair;
 }
 
 std::string sign(std::string_view message, std::string_view secretKey) {
-  std::string signature(crypto_sign_BYTES, '\0');
-  if (secretKey.size() != crypto_sign_SECRETKEYBYTES) return {};
-  crypto_sign_detached(bytes(signature), nullptr, bytes(message), message.size(), bytes(secretKey));
+  if (secretKey.size() != kSignSecretKeyBytes) return {};
+  std::string signature(kSignatureBytes, '\0');
+  backend().sign(bytes(signature), bytes(message), message.size(), bytes(secretKey));
   return signature;
 }
 
 bool verify(std::string_view signature, std::string_view message, std::string_view publicKey) {
-  if (signature.size() != crypto_sign_BYTES || publicKey.size() != crypto_sign_PUBLICKEYBYTES) {
+  if (signature.size() != kSignatureBytes || publicKey.size() != kSignPublicKeyBytes) {
     return false;
   }
-  return crypto_sign_verify_detached(bytes(signature), bytes(message), message.size(),
-                                     bytes(publicKey)) == 0;
+  return backend().verify(bytes(signature), bytes(message), message.size(), bytes(publicKey));
 }
 
 bool keysMatch(std::string_view publicKey, std::string_view secretKey) {
-  if (publicKey.size() != crypto_sign_PUBLICKEYBYTES ||
-      secretKey.size() != crypto_sign_SECRETKEYBYTES) {
+  if (publicKey.size() != kSignPublicKeyBytes || secretKey.size() != kSignSecretKeyBytes) {
     return false;
   }
-  std::string derived(crypto_sign_PUBLICKEYBYTES, '\0');
-  crypto_sign_ed25519_sk_to_pk(bytes(derived), bytes(secretKey));
+  std::string derived(kSignPublicKeyBytes, '\0');
+  backend().secretToPublic(bytes(derived), bytes(secretKey));
   return sameBytes(derived, publicKey);
 }
 
-std::string hash(std::string_view message) {
-  std::string out(crypto_generichash_BYTES, '\0');
-  crypto_generichash(bytes(out), out.size(), bytes(message), message.size(), nullptr, 0);
+std::string hashParts(std::initializer_list<std::string_view> parts, std::size_t outBytes,
+                      std::string_view key) {
+  std::string out(outBytes, '\0');
+  backend().hash(bytes(out), out.size(), parts.begin(), parts.size(), key);
   return out;
 }
 
+std::string hash(std::string_view message) { return hashParts({message}, kHashBytes); }
+
 std::string keyedHash(std::string_view key, std::string_view message, std::size_t outBytes) {
-  std::string out(outBytes, '\0');
-  crypto_generichash(bytes(out), out.size(), bytes(message), message.size(), bytes(key),
-                     key.size());
-  return out;
+  return hashParts({message}, outBytes, key);
 }
 
 std::string fingerprint(std::string_view publicKey) { return toHex(hash(publicKey).substr(0, 8)); }
 
 std::string randomBytes(std::size_t n) {
-  initCrypto();
   std::string out(n, '\0');
-  randombytes_buf(out.data(), n);
+  backend().randomBytes(out.data(), n);
   return out;
 }
 
@@ -82,7 +73,11 @@ std::uint64_t randomU64() {
 }
 
 bool sameBytes(std::string_view a, std::string_view b) {
-  return a.size() == b.size() && sodium_memcmp(a.data(), b.data(), a.size()) == 0;
+  return a.size() == b.size() && backend().sameBytes(a.data(), b.data(), a.size());
+}
+
+void wipe(std::string& secret) {
+  if (!secret.empty()) backend().wipe(secret.data(), secret.size());
 }
 
 std::string toHex(std::string_view in) {

@@ -1,8 +1,7 @@
 // The secured link handshake's cryptography; see link_handshake.h.
 #include "security/link_handshake.h"
 
-#include <sodium.h>
-
+#include "security/backend.h"
 #include "security/bytes.h"
 #include "security/crypto.h"
 
@@ -55,16 +54,15 @@ std::optional<HelloAuth> decodeHelloAuth(std::string_view bytes, std::string& er
 LinkHandshake::LinkHandshake(const Credentials& credentials, bool dialer)
     : credentials_(credentials),
       dialer_(dialer),
-      ephemeralPublic_(crypto_kx_PUBLICKEYBYTES, '\0'),
-      ephemeralSecret_(crypto_kx_SECRETKEYBYTES, '\0') {
-  initCrypto();
-  crypto_kx_keypair(u(ephemeralPublic_), u(ephemeralSecret_));
+      ephemeralPublic_(kKxPublicKeyBytes, '\0'),
+      ephemeralSecret_(kKxSecretKeyBytes, '\0') {
+  backend().kxKeyPair(u(ephemeralPublic_), u(ephemeralSecret_));
 }
 
 LinkHandshake::~LinkHandshake() {
-  sodium_memzero(ephemeralSecret_.data(), ephemeralSecret_.size());
-  sodium_memzero(sendKey_.data(), sendKey_.size());
-  sodium_memzero(receiveKey_.data(), receiveKey_.size());
+  wipe(ephemeralSecret_);
+  wipe(sendKey_);
+  wipe(receiveKey_);
 }
 
 std::string LinkHandshake::helloAuth() const {
@@ -88,18 +86,16 @@ std::optional<std::string> LinkHandshake::onPeerHello(std::string_view peerAuth,
   suite_ = aes ? CipherSuite::Aes256Gcm : CipherSuite::ChaCha20Poly1305;
   transcript_ = hash(std::string(dialer_ ? ourHello : peerHello) +
                      std::string(dialer_ ? peerHello : ourHello));
-  std::string rx(crypto_kx_SESSIONKEYBYTES, '\0'), tx(crypto_kx_SESSIONKEYBYTES, '\0');
-  const int failed =
-      dialer_ ? crypto_kx_client_session_keys(u(rx), u(tx), u(ephemeralPublic_),
-                                              u(ephemeralSecret_), u(auth->ephemeralKey))
-              : crypto_kx_server_session_keys(u(rx), u(tx), u(ephemeralPublic_),
-                                              u(ephemeralSecret_), u(auth->ephemeralKey));
-  if (failed != 0) return "its ephemeral key is unusable";
+  std::string rx(kKeyBytes, '\0'), tx(kKeyBytes, '\0');
+  if (!backend().kxSessionKeys(dialer_, u(rx), u(tx), u(ephemeralPublic_), u(ephemeralSecret_),
+                               u(auth->ephemeralKey))) {
+    return "its ephemeral key is unusable";
+  }
   const std::string context = std::string(kKeysContext) + transcript_;
   sendKey_ = keyedHash(tx, context, kKeyBytes);
   receiveKey_ = keyedHash(rx, context, kKeyBytes);
-  sodium_memzero(rx.data(), rx.size());
-  sodium_memzero(tx.data(), tx.size());
+  wipe(rx);
+  wipe(tx);
   return std::nullopt;
 }
 

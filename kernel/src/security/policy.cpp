@@ -2,8 +2,6 @@
 #include "security/policy.h"
 
 #include <charconv>
-#include <fstream>
-#include <sstream>
 
 #include "peis/error.h"
 #include "peis/key.h"
@@ -146,23 +144,17 @@ std::optional<std::string> Policy::revoked(const Subject& who) const {
 
 Policy Policy::defaults() { return parse(kDefaultText, "the default policy"); }
 
-Policy Policy::load(const std::string& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) YamlFile(file).load();  // throws the error naming the file
-  std::stringstream text;
-  text << in.rdbuf();
-  return parse(text.str(), file);
-}
+Policy Policy::load(const std::string& file) { return parse(readTextFile(file), file); }
 
 Policy Policy::parse(std::string_view text, const std::string& origin) {
   YamlFile yaml(origin);
   const auto root = yaml.parse(text);
   Policy policy;
   policy.text_ = std::string(text);
-  if (!root.IsDefined() || root.IsNull()) yaml.fail(root, "an empty policy");
+  if (!root.isDefined() || root.isNull()) yaml.fail(root, "an empty policy");
   yaml.onlyKeys(root, {"admin", "rules", "revoked"}, "a policy");
 
-  auto readWho = [&](const YAML::Node& node, const std::string& what) {
+  auto readWho = [&](const YamlNode& node, const std::string& what) {
     Who w;
     const auto text = yaml.text(node, what);
     if (text == "*") return w;
@@ -191,9 +183,9 @@ Policy Policy::parse(std::string_view text, const std::string& origin) {
     w.text = value;
     return w;
   };
-  auto readList = [&](const YAML::Node& node, const std::string& what) {
-    if (!node.IsSequence()) yaml.fail(node, what + " must be a list");
-    return node;
+  auto readList = [&](const YamlNode& node, const std::string& what) {
+    if (!node.isSequence()) yaml.fail(node, what + " must be a list");
+    return node.items;
   };
 
   if (const auto admin = root["admin"]) {

@@ -1,25 +1,21 @@
 // RecordCipher: AEAD records of a secured link; see record_cipher.h.
 #include "security/record_cipher.h"
 
-#include <openssl/core_names.h>
-#include <openssl/evp.h>
-#include <openssl/params.h>
-#include <sodium.h>
-
 #include <algorithm>
 #include <cstring>
 #include <stdexcept>
 
-#include "security/crypto.h"
+#include "security/backend.h"
 
 namespace peis::security {
 
+// One AEAD context per direction, in the security module (OpenSSL EVP).
 struct RecordCipher::Keys {
-  EVP_CIPHER_CTX* send = nullptr;
-  EVP_CIPHER_CTX* receive = nullptr;
+  AeadContext* send = nullptr;
+  AeadContext* receive = nullptr;
   ~Keys() {
-    EVP_CIPHER_CTX_free(send);  // frees the expanded keys (cleansed)
-    EVP_CIPHER_CTX_free(receive);
+    if (send != nullptr) backend().aeadFree(send);  // frees the expanded keys (cleansed)
+    if (receive != nullptr) backend().aeadFree(receive);
   }
 };
 
@@ -30,45 +26,18 @@ void nonceOf(std::uint64_t counter, unsigned char nonce[12]) {
   for (int i = 0; i < 8; ++i) nonce[4 + i] = static_cast<unsigned char>(counter >> (56 - 8 * i));
 }
 
-const EVP_CIPHER* cipherOf(CipherSuite suite) {
-  return suite == CipherSuite::Aes256Gcm ? EVP_aes_256_gcm() : EVP_chacha20_poly1305();
-}
-
-EVP_CIPHER_CTX* keyed(CipherSuite suite, std::string_view key, bool encrypt) {
-  EVP_CIPHER_CTX* ctx = EVP_CIPHER_CTX_new();
-  const auto* k = reinterpret_cast<const unsigned char*>(key.data());
-  const int ok = ctx != nullptr &&
-                 (encrypt ? EVP_EncryptInit_ex(ctx, cipherOf(suite), nullptr, k, nullptr)
-                          : EVP_DecryptInit_ex(ctx, cipherOf(suite), nullptr, k, nullptr)) == 1;
-  if (!ok) {
-    EVP_CIPHER_CTX_free(ctx);
+AeadContext* keyed(CipherSuite suite, std::string_view key, bool seal) {
+  if (key.size() != 32) throw std::runtime_error("the record cipher needs a 32-byte key");
+  auto* context = backend().aeadNew(suite == CipherSuite::Aes256Gcm,
+                                    reinterpret_cast<const unsigned char*>(key.data()), seal);
+  if (context == nullptr)
     throw std::runtime_error("the record cipher cannot be set up (libcrypto)");
-  }
-  return ctx;
-}
-
-// The tag, read and set through the cipher's parameters (what
-// EVP_CIPHER_CTX_ctrl's EVP_CTRL_AEAD_GET_TAG and _SET_TAG translate to in
-// OpenSSL 3, without the translation each record): the same parameter for
-// both AEADs.
-bool getTag(EVP_CIPHER_CTX* ctx, unsigned char* tag, std::size_t bytes) {
-  OSSL_PARAM params[] = {OSSL_PARAM_construct_octet_string(OSSL_CIPHER_PARAM_AEAD_TAG, tag, bytes),
-                         OSSL_PARAM_construct_end()};
-  return EVP_CIPHER_CTX_get_params(ctx, params) == 1;
-}
-
-bool setTag(EVP_CIPHER_CTX* ctx, unsigned char* tag, std::size_t bytes) {
-  OSSL_PARAM params[] = {OSSL_PARAM_construct_octet_string(OSSL_CIPHER_PARAM_AEAD_TAG, tag, bytes),
-                         OSSL_PARAM_construct_end()};
-  return EVP_CIPHER_CTX_set_params(ctx, params) == 1;
+  return context;
 }
 
 }  // namespace
 
-bool RecordCipher::aesAvailable() {
-  initCrypto();
-  return crypto_aead_aes256gcm_is_available() != 0;  // AES-NI and CLMUL
-}
+bool RecordCipher::aesAvailable() { return backend().aesAvailable(); }
 
 RecordCipher::RecordCipher(CipherSuite suite, std::string_view sendKey, std::string_view receiveKey)
     : suite_(suite), keys_(std::make_unique<Keys>()) {
@@ -98,14 +67,9 @@ std::size_t RecordCipher::seal(std::string_view plain, char* out) {
     unsigned char* text = record + kHeaderBytes;
     unsigned char nonce[12];
     nonceOf(sent_++, nonce);
-    int written = 0, last = 0;
-    auto* ctx = keys_->send;
     const bool ok =
-        EVP_EncryptInit_ex(ctx, nullptr, nullptr, nullptr, nonce) == 1 &&
-        EVP_EncryptUpdate(ctx, nullptr, &written, record, kHeaderBytes) == 1 &&
-        EVP_EncryptUpdate(ctx, text, &written, reinterpret_cast<const unsigned char*>(plain.data()),
-                          static_cast<int>(n)) == 1 &&
-        EVP_EncryptFinal_ex(ctx, text + written, &last) == 1 && getTag(ctx, text + n, kTagBytes);
+        backend().aeadSeal(keys_->send, nonce, record, kHeaderBytes,
+                           reinterpret_cast<const unsigned char*>(plain.data()), n, text, text + n);
     if (!ok) throw std::runtime_error("sealing a record failed (libcrypto)");
     plain.remove_prefix(n);
     record = text + n + kTagBytes;
@@ -140,13 +104,8 @@ RecordCipher::Open RecordCipher::open(const char* data, std::size_t available,
   nonceOf(received_, nonce);
   unsigned char tag[kTagBytes];
   std::memcpy(tag, text + textBytes, kTagBytes);
-  int written = 0, last = 0;
-  auto* ctx = keys_->receive;
-  const bool ok = EVP_DecryptInit_ex(ctx, nullptr, nullptr, nullptr, nonce) == 1 &&
-                  EVP_DecryptUpdate(ctx, nullptr, &written, record, kHeaderBytes) == 1 &&
-                  EVP_DecryptUpdate(ctx, out, &written, text, static_cast<int>(textBytes)) == 1 &&
-                  setTag(ctx, tag, kTagBytes) &&
-                  EVP_DecryptFinal_ex(ctx, out + written, &last) == 1;
+  const bool ok =
+      backend().aeadOpen(keys_->receive, nonce, record, kHeaderBytes, text, textBytes, out, tag);
   if (!ok) {
     error = "record " + std::to_string(received_) +
             " failed its integrity check (changed, replayed, reordered or wrongly keyed)";

@@ -1,8 +1,7 @@
 // Tags of relayed frames; see source_tag.h.
 #include "security/source_tag.h"
 
-#include <sodium.h>
-
+#include "security/backend.h"
 #include "security/crypto.h"
 
 namespace peis::security {
@@ -25,49 +24,42 @@ unsigned char* u(std::string& s) { return reinterpret_cast<unsigned char*>(s.dat
 }  // namespace
 
 SourceTags::SourceTags(const Credentials& ours)
-    : ourKey_(ours.certificate.publicKey), ourCurve_(crypto_scalarmult_curve25519_BYTES, '\0') {
-  initCrypto();
-  crypto_sign_ed25519_sk_to_curve25519(u(ourCurve_), u(ours.secretKey));
+    : ourKey_(ours.certificate.publicKey), ourCurve_(kKxSecretKeyBytes, '\0') {
+  backend().secretToCurve(u(ourCurve_), u(ours.secretKey));
 }
 
 SourceTags::~SourceTags() {
-  sodium_memzero(ourCurve_.data(), ourCurve_.size());
-  for (auto& [k, v] : pairKeys_) sodium_memzero(v.data(), v.size());
+  wipe(ourCurve_);
+  for (auto& [k, v] : pairKeys_) wipe(v);
 }
 
 const std::string& SourceTags::pairKey(std::string_view theirKey) {
   if (auto it = pairKeys_.find(theirKey); it != pairKeys_.end()) return it->second;
   if (pairKeys_.size() >= kMaxPairKeys) pairKeys_.clear();
-  std::string theirCurve(crypto_scalarmult_curve25519_BYTES, '\0');
-  std::string shared(crypto_scalarmult_BYTES, '\0');
+  std::string theirCurve(kKxPublicKeyBytes, '\0');
+  std::string shared(kKeyBytes, '\0');
   std::string key;
-  if (theirKey.size() == crypto_sign_PUBLICKEYBYTES &&
-      crypto_sign_ed25519_pk_to_curve25519(u(theirCurve), u(theirKey)) == 0 &&
-      crypto_scalarmult(u(shared), u(ourCurve_), u(theirCurve)) == 0) {
+  if (theirKey.size() == kSignPublicKeyBytes &&
+      backend().publicToCurve(u(theirCurve), u(theirKey)) &&
+      backend().scalarMult(u(shared), u(ourCurve_), u(theirCurve))) {
     const bool oursFirst = std::string_view(ourKey_) < theirKey;
     key = hash(std::string(kContext) + shared + (oursFirst ? ourKey_ : std::string(theirKey)) +
                (oursFirst ? std::string(theirKey) : ourKey_));
   } else {
     key = randomBytes(kKeyBytes);  // an unusable key: no tag will ever check
   }
-  sodium_memzero(shared.data(), shared.size());
+  wipe(shared);
   return pairKeys_.emplace(std::string(theirKey), std::move(key)).first->second;
 }
 
 std::string SourceTags::tag(std::string_view theirKey, std::string_view frame,
                             std::string_view tail) {
   const auto& key = pairKey(theirKey);
-  crypto_generichash_state state;
-  crypto_generichash_init(&state, u(key), key.size(), kTagBytes);
   if (frame.size() > kTtlOffset) {
-    crypto_generichash_update(&state, u(frame), kTtlOffset);
-    crypto_generichash_update(&state, u(frame.substr(kTtlOffset + 1)),
-                              frame.size() - kTtlOffset - 1);
+    return hashParts({frame.substr(0, kTtlOffset), frame.substr(kTtlOffset + 1), tail}, kTagBytes,
+                     key);
   }
-  crypto_generichash_update(&state, u(tail), tail.size());
-  std::string out(kTagBytes, '\0');
-  crypto_generichash_final(&state, u(out), out.size());
-  return out;
+  return hashParts({tail}, kTagBytes, key);
 }
 
 bool SourceTags::check(std::string_view theirKey, std::string_view tagBytes,

@@ -6,69 +6,82 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstring>
-#include <fstream>
-#include <sstream>
 
 #include "peis/error.h"
+#include "security/backend.h"
 #include "security/crypto.h"
 
 namespace peis::security {
 
-YAML::Node YamlFile::load() const {
-  std::ifstream in(origin_);
-  if (!in) {
+std::string readTextFile(const std::string& path) {
+  // stdio, not <fstream>: iostreams would link the locale machinery of the
+  // statically linked libstdc++ into every program, whose code pages each
+  // PEIS then maps (docs/performance.md, "Memory per PEIS").
+  std::FILE* in = std::fopen(path.c_str(), "rb");
+  if (in == nullptr) {
     throw Error(ErrorCode::InvalidConfig,
-                origin_ + ": cannot be read: " + std::string(std::strerror(errno)));
+                path + ": cannot be read: " + std::string(std::strerror(errno)));
   }
-  std::stringstream text;
-  text << in.rdbuf();
-  return parse(text.str());
+  std::string text;
+  char chunk[4096];
+  std::size_t n = 0;
+  while ((n = std::fread(chunk, 1, sizeof chunk, in)) > 0) text.append(chunk, n);
+  const bool failed = std::ferror(in) != 0;
+  const int error = errno;
+  std::fclose(in);
+  if (failed) {
+    throw Error(ErrorCode::InvalidConfig,
+                path + ": cannot be read: " + std::string(std::strerror(error)));
+  }
+  return text;
 }
 
-YAML::Node YamlFile::parse(std::string_view text) const {
-  try {
-    return YAML::Load(std::string(text));
-  } catch (const YAML::Exception& e) {
-    throw Error(ErrorCode::InvalidConfig,
-                origin_ + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
+YamlNode YamlFile::load() const { return parse(readTextFile(origin_)); }
+
+YamlNode YamlFile::parse(std::string_view text) const {
+  YamlNode root;
+  int line = -1;
+  std::string error;
+  if (!backend().parseYaml(text, root, line, error)) {
+    throw Error(ErrorCode::InvalidConfig, origin_ + ":" + std::to_string(line + 1) + ": " + error);
   }
+  return root;
 }
 
-void YamlFile::fail(const YAML::Node& at, const std::string& why) const {
-  const auto mark = at.Mark();
-  const auto line = mark.line >= 0 ? ":" + std::to_string(mark.line + 1) : std::string();
+void YamlFile::fail(const YamlNode& at, const std::string& why) const {
+  const auto line = at.line >= 0 ? ":" + std::to_string(at.line + 1) : std::string();
   throw Error(ErrorCode::InvalidConfig, origin_ + line + ": " + why);
 }
 
-void YamlFile::onlyKeys(const YAML::Node& map, std::initializer_list<const char*> known,
+void YamlFile::onlyKeys(const YamlNode& map, std::initializer_list<const char*> known,
                         const std::string& what) const {
-  if (!map.IsMap()) fail(map, what + " must be a mapping");
-  for (const auto& entry : map) {
-    const auto key = entry.first.as<std::string>();
+  if (!map.isMap()) fail(map, what + " must be a mapping");
+  for (const auto& keyNode : map.keys) {
+    const auto& key = keyNode.scalar;
     bool ok = false;
     for (const char* k : known) ok |= key == k;
     if (!ok) {
       std::string list;
       for (const char* k : known) list += (list.empty() ? "" : ", ") + std::string(k);
-      fail(entry.first, "unknown key '" + key + "' in " + what + " (known: " + list + ")");
+      fail(keyNode, "unknown key '" + key + "' in " + what + " (known: " + list + ")");
     }
   }
 }
 
-YAML::Node YamlFile::required(const YAML::Node& map, const char* key,
-                              const std::string& what) const {
+YamlNode YamlFile::required(const YamlNode& map, const char* key, const std::string& what) const {
   const auto node = map[key];
   if (!node) fail(map, what + " has no '" + key + "'");
   return node;
 }
 
-std::string YamlFile::text(const YAML::Node& node, const std::string& what) const {
-  if (!node.IsScalar()) fail(node, what + " must be a text");
-  return node.as<std::string>();
+std::string YamlFile::text(const YamlNode& node, const std::string& what) const {
+  if (!node.isScalar()) fail(node, what + " must be a text");
+  return node.scalar;
 }
 
-std::string YamlFile::hexBytes(const YAML::Node& node, std::size_t bytes,
+std::string YamlFile::hexBytes(const YamlNode& node, std::size_t bytes,
                                const std::string& what) const {
   const auto value = fromHex(text(node, what));
   if (!value || value->size() != bytes) {

@@ -1,13 +1,14 @@
 // The security layer's YAML reading (credentials, trust roots, policies):
 // every error is peis::Error(InvalidConfig) naming `origin:line` and the
 // problem, and a file is written whole with mode 0600 (it may hold a secret).
+// The parsing is yaml-cpp's, in the security module (backend.h).
 #pragma once
-
-#include <yaml-cpp/yaml.h>
 
 #include <initializer_list>
 #include <string>
 #include <string_view>
+
+#include "security/yaml_node.h"
 
 namespace peis::security {
 
@@ -15,22 +16,26 @@ class YamlFile {
  public:
   explicit YamlFile(std::string origin) : origin_(std::move(origin)) {}
   // Reads and parses the file `origin` names.
-  YAML::Node load() const;
+  YamlNode load() const;
   // Parses `text` (origin names where it came from).
-  YAML::Node parse(std::string_view text) const;
+  YamlNode parse(std::string_view text) const;
   const std::string& origin() const { return origin_; }
 
-  [[noreturn]] void fail(const YAML::Node& at, const std::string& why) const;
-  void onlyKeys(const YAML::Node& map, std::initializer_list<const char*> known,
+  [[noreturn]] void fail(const YamlNode& at, const std::string& why) const;
+  void onlyKeys(const YamlNode& map, std::initializer_list<const char*> known,
                 const std::string& what) const;
-  YAML::Node required(const YAML::Node& map, const char* key, const std::string& what) const;
-  std::string text(const YAML::Node& node, const std::string& what) const;
+  YamlNode required(const YamlNode& map, const char* key, const std::string& what) const;
+  std::string text(const YamlNode& node, const std::string& what) const;
   // A string of hex digits holding exactly `bytes` bytes.
-  std::string hexBytes(const YAML::Node& node, std::size_t bytes, const std::string& what) const;
+  std::string hexBytes(const YamlNode& node, std::size_t bytes, const std::string& what) const;
 
  private:
   std::string origin_;
 };
+
+// The whole of the file `path`; throws Error(InvalidConfig) naming it when
+// it cannot be read.
+std::string readTextFile(const std::string& path);
 
 // Writes `text` to a new file `path` readable by its owner only; throws
 // Error(InvalidArgument) when it exists (unless `replace`) or cannot be
