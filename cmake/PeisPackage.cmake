@@ -52,7 +52,7 @@ endfunction()
 
 # The dependencies a consumer must find: Threads always; yaml-cpp only when
 # the libraries are static (the component library's; a shared one carries
-# its own links). The kernel links none: libsodium, OpenSSL's libcrypto and
+# its own links). The kernel links none: libsodium, libgcrypt and
 # yaml-cpp are the security module's (<libdir>/peis/libpeis-security.so),
 # which the kernel loads at run time in a secured ecology. Boost is
 # header-only and private to the kernel's sources: nothing of it is needed

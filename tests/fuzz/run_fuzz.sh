@@ -9,7 +9,8 @@
 # tiny/fuzz/tiny_decode_fuzz.c (the Tiny PEIS-kernel's radio-frame decoder)
 # into BUILD_DIR/fuzz-tiny/, starting from an empty corpus. secured: compiles
 # tests/fuzz/secured_fuzz.cpp (a secured link's auth field, identities and
-# records, with libsodium) into BUILD_DIR/fuzz-secured/. Each then runs
+# records, through the security module: libsodium and libgcrypt) into
+# BUILD_DIR/fuzz-secured/. Each then runs
 # the fuzzer for PEIS_FUZZ_SECONDS
 # (default 20). Exits non-zero when the fuzzer finds a crash, a leak or a
 # sanitizer error (the input is kept as BUILD_DIR/fuzz/crash-*), and 0 with

@@ -13,8 +13,8 @@ constexpr std::string_view kBegin = "<!-- layering:begin -->";
 constexpr std::string_view kEnd = "<!-- layering:end -->";
 
 const std::set<std::string> kCategories = {
-    "c",      "c++",    "system",   "boost",      "yaml-cpp", "sqlite",    "catch2", "eigen",
-    "opencv", "simavr", "avr-libc", "cyclonedds", "zeromq",   "libsodium", "openssl"};
+    "c",      "c++",    "system",   "boost",      "yaml-cpp", "sqlite",    "catch2",   "eigen",
+    "opencv", "simavr", "avr-libc", "cyclonedds", "zeromq",   "libsodium", "libgcrypt"};
 
 // The C standard library's headers (C99 and C11).
 const std::set<std::string> kCHeaders = {
@@ -182,7 +182,7 @@ std::string categoryOf(const Include& include) {
   if (startsWith(name, "dds/")) return "cyclonedds";  // benchmark peers only
   if (name == "zmq.h") return "zeromq";
   if (name == "sodium.h" || startsWith(name, "sodium/")) return "libsodium";
-  if (startsWith(name, "openssl/")) return "openssl";
+  if (name == "gcrypt.h") return "libgcrypt";
   if (startsWith(name, "sim_") || startsWith(name, "avr_") || startsWith(name, "simavr/"))
     return "simavr";
   return "system";  // POSIX and the rest of the operating system

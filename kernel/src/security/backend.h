@@ -1,5 +1,5 @@
-// Backend: what the security layer takes from libsodium, OpenSSL's libcrypto
-// and yaml-cpp, as a table of functions that the security module
+// Backend: what the security layer takes from libsodium, libgcrypt and
+// yaml-cpp, as a table of functions that the security module
 // (libpeis-security.so, backend_module.cpp) fills in. The kernel loads that
 // module with dlopen the first time a secured ecology (or `peis keys`)
 // needs one of them (backend(), backend_loader.cpp), so a PEIS of an open
@@ -25,7 +25,8 @@ namespace peis::security {
 // takes a module only of its own version and revision (and table size).
 inline constexpr std::uint32_t kBackendRevision = 1;
 
-// One direction of a link's records: an AEAD keyed once (OpenSSL EVP).
+// One direction of a link's records: an AEAD keyed once (a libgcrypt
+// cipher handle).
 struct AeadContext;
 
 struct Backend {
@@ -61,9 +62,10 @@ struct Backend {
   void (*wipe)(void* data, std::size_t bytes);
   bool (*aesAvailable)();  // AES-NI and CLMUL (libsodium's check)
 
-  // OpenSSL: AES-256-GCM (`aes`) or ChaCha20-Poly1305 keyed by the 32-byte
-  // `key`, to seal or open; nullptr on failure. Freed (and cleansed) by
-  // aeadFree.
+  // libgcrypt (initialised on the first call): AES-256-GCM (`aes`) or
+  // ChaCha20-Poly1305 (IETF) keyed by the 32-byte `key`, to seal or open
+  // (the module may use one kind of context for both); nullptr on failure.
+  // Freed (and wiped) by aeadFree.
   AeadContext* (*aeadNew)(bool aes, const unsigned char* key, bool seal);
   void (*aeadFree)(AeadContext* context);
   // One record: `text` (`bytes`) under the 12-byte nonce and the associated

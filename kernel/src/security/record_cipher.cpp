@@ -9,7 +9,7 @@
 
 namespace peis::security {
 
-// One AEAD context per direction, in the security module (OpenSSL EVP).
+// One AEAD context per direction, in the security module (libgcrypt).
 struct RecordCipher::Keys {
   AeadContext* send = nullptr;
   AeadContext* receive = nullptr;
@@ -31,7 +31,7 @@ AeadContext* keyed(CipherSuite suite, std::string_view key, bool seal) {
   auto* context = backend().aeadNew(suite == CipherSuite::Aes256Gcm,
                                     reinterpret_cast<const unsigned char*>(key.data()), seal);
   if (context == nullptr)
-    throw std::runtime_error("the record cipher cannot be set up (libcrypto)");
+    throw std::runtime_error("the record cipher cannot be set up (libgcrypt)");
   return context;
 }
 
@@ -70,7 +70,7 @@ std::size_t RecordCipher::seal(std::string_view plain, char* out) {
     const bool ok =
         backend().aeadSeal(keys_->send, nonce, record, kHeaderBytes,
                            reinterpret_cast<const unsigned char*>(plain.data()), n, text, text + n);
-    if (!ok) throw std::runtime_error("sealing a record failed (libcrypto)");
+    if (!ok) throw std::runtime_error("sealing a record failed (libgcrypt)");
     plain.remove_prefix(n);
     record = text + n + kTagBytes;
   } while (!plain.empty());

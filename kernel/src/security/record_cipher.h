@@ -6,7 +6,9 @@
 //   record = u32 length L (17..kMaxPlainBytes + 16) | L − 16 bytes of
 //            ciphertext | 16-byte tag
 //   AEAD:  AES-256-GCM when both ends have it in hardware, else
-//          ChaCha20-Poly1305 (IETF); libsodium's.
+//          ChaCha20-Poly1305 (IETF, RFC 8439); libgcrypt's, in the
+//          security module (its AES-GCM uses VAES/VPCLMULQDQ where the CPU
+//          has them: docs/security.md, "What it costs").
 //   nonce: 4 zero bytes | u64 record number (per direction, from 0)
 //   associated data: the 4 length bytes
 //

@@ -1,22 +1,23 @@
 // The security module (libpeis-security.so): the Backend table over
-// libsodium, OpenSSL's libcrypto and yaml-cpp; see backend.h. Built as a
-// module that only secured PEIS load (dlopen): nothing but its entry point
-// is exported, and no exception leaves it.
-#include <openssl/core_names.h>
-#include <openssl/evp.h>
-#include <openssl/params.h>
+// libsodium, libgcrypt (the records' AEAD) and yaml-cpp; see backend.h.
+// Built as a module that only secured PEIS load (dlopen): nothing but its
+// entry point is exported, and no exception leaves it.
+#include <gcrypt.h>
 #include <sodium.h>
 #include <yaml-cpp/yaml.h>
 
 #include <cstring>
 #include <exception>
+#include <new>
 
 #include "security/backend.h"
 
 namespace peis::security {
 
+// A libgcrypt handle, keyed once; each record sets its nonce. Closing it
+// wipes the expanded key.
 struct AeadContext {
-  EVP_CIPHER_CTX* ctx = nullptr;
+  gcry_cipher_hd_t handle = nullptr;
 };
 
 namespace {
@@ -81,56 +82,60 @@ void wipe(void* data, std::size_t bytes) { sodium_memzero(data, bytes); }
 
 bool aesAvailable() { return crypto_aead_aes256gcm_is_available() != 0; }
 
-AeadContext* aeadNew(bool aes, const unsigned char* key, bool seal) {
-  EVP_CIPHER_CTX* ctx = EVP_CIPHER_CTX_new();
-  const EVP_CIPHER* cipher = aes ? EVP_aes_256_gcm() : EVP_chacha20_poly1305();
+// libgcrypt is initialised once per process, on the first AEAD (a
+// function-local static: thread-safe), unless the program did it first; a
+// PEIS that only signs (`peis keys`) never does. No secure memory: the keys
+// live in ordinary memory, as libsodium's do, and are wiped on close.
+bool gcryptReady() {
+  static const bool ready = [] {
+    if (gcry_control(GCRYCTL_INITIALIZATION_FINISHED_P) != 0) return true;
+    if (gcry_check_version(GCRYPT_VERSION) == nullptr) return false;  // older than the headers
+    gcry_control(GCRYCTL_DISABLE_SECMEM, 0);
+    gcry_control(GCRYCTL_INITIALIZATION_FINISHED, 0);
+    return true;
+  }();
+  return ready;
+}
+
+// One handle serves both directions in libgcrypt: `seal` is not needed.
+AeadContext* aeadNew(bool aes, const unsigned char* key, bool /*seal*/) {
+  if (!gcryptReady()) return nullptr;
+  gcry_cipher_hd_t handle = nullptr;
   const bool ok =
-      ctx != nullptr && (seal ? EVP_EncryptInit_ex(ctx, cipher, nullptr, key, nullptr)
-                              : EVP_DecryptInit_ex(ctx, cipher, nullptr, key, nullptr)) == 1;
-  if (!ok) {
-    EVP_CIPHER_CTX_free(ctx);
-    return nullptr;
-  }
-  return new (std::nothrow) AeadContext{ctx};
+      gcry_cipher_open(&handle, aes ? GCRY_CIPHER_AES256 : GCRY_CIPHER_CHACHA20,
+                       aes ? GCRY_CIPHER_MODE_GCM : GCRY_CIPHER_MODE_POLY1305, 0) == 0 &&
+      gcry_cipher_setkey(handle, key, 32) == 0;
+  auto* context = ok ? new (std::nothrow) AeadContext{handle} : nullptr;
+  if (context == nullptr) gcry_cipher_close(handle);  // nullptr: nothing
+  return context;
 }
 
 void aeadFree(AeadContext* context) {
   if (context == nullptr) return;
-  EVP_CIPHER_CTX_free(context->ctx);  // frees the expanded keys (cleansed)
+  gcry_cipher_close(context->handle);  // wipes the expanded key
   delete context;
-}
-
-// The tag, read and set through the cipher's parameters (what
-// EVP_CIPHER_CTX_ctrl's EVP_CTRL_AEAD_GET_TAG and _SET_TAG translate to in
-// OpenSSL 3, without the translation each record): the same parameter for
-// both AEADs.
-bool tagParam(EVP_CIPHER_CTX* ctx, unsigned char* tag, bool get) {
-  OSSL_PARAM params[] = {OSSL_PARAM_construct_octet_string(OSSL_CIPHER_PARAM_AEAD_TAG, tag, 16),
-                         OSSL_PARAM_construct_end()};
-  return (get ? EVP_CIPHER_CTX_get_params(ctx, params) : EVP_CIPHER_CTX_set_params(ctx, params)) ==
-         1;
 }
 
 bool aeadSeal(AeadContext* context, const unsigned char* nonce, const unsigned char* ad,
               std::size_t adBytes, const unsigned char* text, std::size_t bytes, unsigned char* out,
               unsigned char* tag) {
-  auto* ctx = context->ctx;
-  int written = 0, last = 0;
-  return EVP_EncryptInit_ex(ctx, nullptr, nullptr, nullptr, nonce) == 1 &&
-         EVP_EncryptUpdate(ctx, nullptr, &written, ad, static_cast<int>(adBytes)) == 1 &&
-         EVP_EncryptUpdate(ctx, out, &written, text, static_cast<int>(bytes)) == 1 &&
-         EVP_EncryptFinal_ex(ctx, out + written, &last) == 1 && tagParam(ctx, tag, true);
+  auto* handle = context->handle;
+  return gcry_cipher_setiv(handle, nonce, 12) == 0 &&
+         gcry_cipher_authenticate(handle, ad, adBytes) == 0 &&
+         gcry_cipher_encrypt(handle, out, bytes, text, bytes) == 0 &&
+         gcry_cipher_gettag(handle, tag, 16) == 0;
 }
 
+// The tag is checked in constant time; a failed one leaves `out` written
+// but not to be taken (the link closes).
 bool aeadOpen(AeadContext* context, const unsigned char* nonce, const unsigned char* ad,
               std::size_t adBytes, const unsigned char* text, std::size_t bytes, unsigned char* out,
               unsigned char* tag) {
-  auto* ctx = context->ctx;
-  int written = 0, last = 0;
-  return EVP_DecryptInit_ex(ctx, nullptr, nullptr, nullptr, nonce) == 1 &&
-         EVP_DecryptUpdate(ctx, nullptr, &written, ad, static_cast<int>(adBytes)) == 1 &&
-         EVP_DecryptUpdate(ctx, out, &written, text, static_cast<int>(bytes)) == 1 &&
-         tagParam(ctx, tag, false) && EVP_DecryptFinal_ex(ctx, out + written, &last) == 1;
+  auto* handle = context->handle;
+  return gcry_cipher_setiv(handle, nonce, 12) == 0 &&
+         gcry_cipher_authenticate(handle, ad, adBytes) == 0 &&
+         gcry_cipher_decrypt(handle, out, bytes, text, bytes) == 0 &&
+         gcry_cipher_checktag(handle, tag, 16) == 0;
 }
 
 YamlNode convert(const YAML::Node& node) {
