@@ -314,7 +314,7 @@ std::string Options::helpText() {
          "  --peis-max-data BYTES    largest tuple data accepted (default 64 MiB)\n"
          "  --peis-demand-link-rate B  link directly to a PEIS whose flow with this one\n"
          "                           reaches B bytes/s over 2 s through relays\n"
-         "                           (default 1048576; 0: never)\n"
+         "                           (default 524288; 0: never)\n"
          "  --peis-credentials FILE  join the secured ecology these credentials are for\n"
          "                           (authenticated, encrypted links; docs/security.md)\n"
          "  --peis-policy FILE       who may do what with this PEIS's tuples (YAML; with\n"

@@ -379,7 +379,7 @@ TEST_CASE("the limits' flags (docs/security.md)", "[unit][options]") {
 
 TEST_CASE("the demand link flags (docs/protocol.md §6)", "[unit][options]") {
   const auto defaults = parse({});
-  CHECK(defaults.demandLinkRate == 1u << 20);
+  CHECK(defaults.demandLinkRate == 512u << 10);
   CHECK(defaults.limits.maxDemandLinks == 4);
   const auto o = parse({"--peis-demand-link-rate", "0", "--peis-max-demand-links=2"});
   CHECK(o.demandLinkRate == 0);

@@ -73,7 +73,7 @@ struct Options {
   // as their destination) of at least this many bytes a second over 2 s,
   // when it goes through relays, gets a direct link (a demand link,
   // docs/protocol.md §6); 0: never.
-  std::uint64_t demandLinkRate = 1u << 20;  // --peis-demand-link-rate BYTES_PER_S
+  std::uint64_t demandLinkRate = 512u << 10;  // --peis-demand-link-rate BYTES_PER_S
   Limits limits;  // --peis-handshake-ms, --peis-max-*, --peis-quota-*, --peis-id-claim-ms,
                   // --peis-relay-grace-ms, --peis-max-demand-links
   // A credentials file of a secured ecology (docs/security.md): the PEIS

@@ -52,7 +52,7 @@ bool shouldPrune(const std::vector<PeisId>& sortedIds, PeisId self, const PruneQ
 struct DemandConfig {
   // A flow of at least this many bytes a second, on average over `window`,
   // is heavy (--peis-demand-link-rate); 0: no demand links.
-  std::uint64_t bytesPerSecond = 1u << 20;
+  std::uint64_t bytesPerSecond = 512u << 10;
   std::chrono::milliseconds window{2000};
   // A link not wanted by the overlay is kept while its flow was heavy
   // within this time, and pruned as the overlay would after.
