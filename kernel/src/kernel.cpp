@@ -261,7 +261,9 @@ NetworkStats Kernel::networkStats() const {
                          c.heldFramesDropped,
                          c.authRefused,
                          c.unentitled,
-                         c.directFramesOut.load(std::memory_order_relaxed)};
+                         c.directFramesOut.load(std::memory_order_relaxed),
+                         c.bytesRelayed,
+                         c.demandDials};
     MutexLock lock(impl_->mu);
     stats.coalesced += impl_->replication.coalesced();
   };

@@ -98,3 +98,105 @@ TEST_CASE("link policy: what is pruned", "[unit][link-policy]") {
   tool.peerIsTool = true;
   CHECK_FALSE(shouldPrune(ids, self, tool));
 }
+
+TEST_CASE("link policy: a link that carries a heavy flow is not pruned until it is idle",
+          "[unit][link-policy][demand]") {
+  const std::vector<PeisId> ids{100, 200, 300, 400, 500, 600, 700, 800};
+  std::optional<std::pair<PeisId, PeisId>> unwanted;
+  for (const PeisId a : ids) {
+    for (const PeisId b : ids) {
+      if (a < b && !unwanted && !overlayWantsSorted(ids, a, b)) unwanted = std::pair{a, b};
+    }
+  }
+  REQUIRE(unwanted);
+  const auto [self, peer] = *unwanted;
+
+  DemandConfig config;
+  config.bytesPerSecond = 1000;
+  config.window = 2000ms;
+  config.idleAfter = 10000ms;
+  DemandMeter meter(config);
+  const auto start = std::chrono::steady_clock::time_point{} + 1h;
+  auto at = start;
+  auto step = [&](std::uint64_t bytes) {  // one step of 500 ms
+    meter.add(peer, bytes);
+    at += 500ms;
+    meter.tick(at);
+  };
+  PruneQuestion q{peer, true, true, 5s, true};
+  q.busy = meter.busy(peer, at);
+  CHECK(shouldPrune(ids, self, q));  // never busy: the overlay's rule alone
+
+  for (int i = 0; i < 4; ++i) step(600);  // 1200 B/s over the window
+  REQUIRE(meter.heavy(peer));
+  q.busy = meter.busy(peer, at);
+  CHECK_FALSE(shouldPrune(ids, self, q));  // it carries the flow
+
+  for (int i = 0; i < 8; ++i) step(0);  // 4 s idle: not heavy, still busy lately
+  CHECK_FALSE(meter.heavy(peer));
+  q.busy = meter.busy(peer, at);
+  CHECK_FALSE(shouldPrune(ids, self, q));
+  for (int i = 0; i < 16; ++i) step(0);  // idle for longer than idleAfter
+  q.busy = meter.busy(peer, at);
+  CHECK(shouldPrune(ids, self, q));  // pruned as the overlay would
+}
+
+TEST_CASE("demand meter: a flow is heavy only when sustained over the window",
+          "[unit][link-policy][demand]") {
+  DemandConfig config;
+  config.bytesPerSecond = 1000;
+  DemandMeter meter(config);
+  auto at = std::chrono::steady_clock::time_point{} + 1h;
+  auto step = [&](PeisId peer, std::uint64_t bytes) {
+    meter.add(peer, bytes);
+    at += 500ms;
+    meter.tick(at);
+  };
+  step(7, 1500);  // one burst of 1500 B in a 2 s window: 750 B/s
+  CHECK_FALSE(meter.heavy(7));
+  for (int i = 0; i < 3; ++i) step(7, 1500);  // 6000 B in 2 s
+  CHECK(meter.heavy(7));
+  CHECK(meter.rate(7) == 3000);
+  for (int i = 0; i < 4; ++i) step(9, 5000);            // a heavier flow comes first
+  CHECK(meter.heavyPeers() == std::vector<PeisId>{9});  // 7 stopped: its window is empty
+  meter.add(7, 100000);
+  at += 500ms;
+  meter.tick(at);
+  CHECK(meter.heavyPeers() == std::vector<PeisId>{7, 9});
+
+  // A fast flow is heavy once the window's bytes are there, before a step.
+  DemandMeter fresh(config);
+  CHECK_FALSE(fresh.add(5, 1999));
+  CHECK(fresh.add(5, 1));  // 2000 B: 1000 B/s over 2 s
+  CHECK_FALSE(fresh.add(5, 1));
+  CHECK(fresh.heavy(5));
+  CHECK(fresh.heavyPeers() == std::vector<PeisId>{5});
+
+  DemandConfig off = config;
+  off.bytesPerSecond = 0;
+  DemandMeter none(off);
+  none.add(7, 1u << 30);
+  none.tick(at);
+  CHECK_FALSE(none.heavy(7));
+  CHECK(none.heavyPeers().empty());
+}
+
+TEST_CASE("demand links: dial heavy flows over relays, bounded, never for a tool",
+          "[unit][link-policy][demand]") {
+  DemandConfig config;
+  config.maxLinks = 2;
+  const std::vector<DemandPeer> heavy{{10, true, false, false, true},    // linked already
+                                      {11, false, true, false, true},    // being dialled
+                                      {12, false, false, true, true},    // a tool
+                                      {13, false, false, false, false},  // no address known
+                                      {14, false, false, false, true},
+                                      {15, false, false, false, true},
+                                      {16, false, false, false, true}};
+  CHECK(demandDials(heavy, 0, config, false) == std::vector<PeisId>{14, 15});
+  CHECK(demandDials(heavy, 1, config, false) == std::vector<PeisId>{14});
+  CHECK(demandDials(heavy, 2, config, false).empty());  // the bound is reached
+  CHECK(demandDials(heavy, 0, config, true).empty());   // a tool dials for nobody
+  auto off = config;
+  off.bytesPerSecond = 0;
+  CHECK(demandDials(heavy, 0, off, false).empty());
+}
