@@ -261,9 +261,7 @@ NetworkStats Kernel::networkStats() const {
                          c.heldFramesDropped,
                          c.authRefused,
                          c.unentitled,
-                         c.directFramesOut.load(std::memory_order_relaxed),
-                         c.bytesRelayed,
-                         c.demandDials};
+                         c.directFramesOut.load(std::memory_order_relaxed)};
     MutexLock lock(impl_->mu);
     stats.coalesced += impl_->replication.coalesced();
   };

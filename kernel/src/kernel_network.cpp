@@ -50,8 +50,6 @@ void Kernel::Impl::startNetwork() {  // kernel thread
   config.maxHeldBytes = options.limits.maxHeldBytes;
   config.idClaimWindow = options.limits.idClaimWindow;
   config.relayGrace = options.limits.relayGrace;
-  config.demand.bytesPerSecond = options.demandLinkRate;
-  config.demand.maxLinks = options.limits.maxDemandLinks;
   config.credentials = credentials;
   net::Network::Events events;
   events.onMessages = [this](std::vector<wire::RoutedMessage>&& m) { onMessages(std::move(m)); };

@@ -102,11 +102,6 @@ bool Kernel::Impl::sendDirect(DirectSend& direct) {
   direct.stamp(id, incarnation);
   for (auto& out : taken) {
     const auto destination = out.destination;
-    // The demand meter counts what this thread sends itself too.
-    network->noteDirectSent(destination, out.frameCount > 0 ? out.frames.size()
-                                         : out.update
-                                             ? out.update->data.size() + out.update->key.size()
-                                             : 0);
     direct.add(directLinks.at(destination).get(), std::move(out));
   }
   taken.clear();

@@ -82,7 +82,6 @@ constexpr SizeLimitFlag kSizeLimitFlags[] = {
     {"--peis-max-handshakes-per-host", &Limits::maxHandshakesPerHost},
     {"--peis-max-routes", &Limits::maxRoutes},
     {"--peis-max-held-bytes", &Limits::maxHeldBytes},
-    {"--peis-max-demand-links", &Limits::maxDemandLinks},
     {"--peis-quota-keys", &Limits::quotaKeys},
     {"--peis-quota-bytes", &Limits::quotaBytes},
     {"--peis-quota-total-keys", &Limits::quotaTotalKeys},
@@ -147,8 +146,6 @@ bool applySetting(Options& options, const std::string& flag, const std::string& 
     options.policy = value;
   } else if (flag == "--peis-id-claim-ms") {
     options.limits.idClaimWindow = std::chrono::milliseconds(parseUnsigned(source, value, 3600000));
-  } else if (flag == "--peis-demand-link-rate") {
-    options.demandLinkRate = parseUnsigned(source, value, kMaxLimit);
   } else if (flag == "--peis-relay-grace-ms") {
     options.limits.relayGrace = std::chrono::milliseconds(parseUnsigned(source, value, 60000));
   } else if (auto* limit = sizeLimit(options.limits, flag)) {
@@ -247,7 +244,7 @@ bool Options::isValueFlag(std::string_view flag) {
        {"--peis-id", "--peis-name", "--peis-port", "--peis-connect", "--peis-set-tuple",
         "--peis-ecology", "--peis-discovery-port", "--peis-liveness-ms", "--peis-max-data",
         "--peis-handshake-ms", "--peis-id-claim-ms", "--peis-relay-grace-ms", "--peis-credentials",
-        "--peis-policy", "--peis-demand-link-rate"}) {
+        "--peis-policy"}) {
     if (flag == known) return true;
   }
   for (const auto& known : kSizeLimitFlags) {
@@ -281,7 +278,6 @@ void Options::validate() const {
   if (limits.idClaimWindow.count() < 0 || limits.idClaimWindow.count() > 3600000) {
     bad("--peis-id-claim-ms", "0..3600000 ms");
   }
-  if (demandLinkRate > kMaxLimit) bad("--peis-demand-link-rate", "0..2^40 bytes a second");
   if (limits.relayGrace.count() < 0 || limits.relayGrace.count() > 60000) {
     bad("--peis-relay-grace-ms", "0..60000 ms");
   }
@@ -312,9 +308,6 @@ std::string Options::helpText() {
          "  --peis-discovery-port P  UDP port of the discovery beacons (default 7700)\n"
          "  --peis-liveness-ms MS    a link silent this long is dead (default 2000)\n"
          "  --peis-max-data BYTES    largest tuple data accepted (default 64 MiB)\n"
-         "  --peis-demand-link-rate B  link directly to a PEIS whose flow with this one\n"
-         "                           reaches B bytes/s over 2 s through relays\n"
-         "                           (default 524288; 0: never)\n"
          "  --peis-credentials FILE  join the secured ecology these credentials are for\n"
          "                           (authenticated, encrypted links; docs/security.md)\n"
          "  --peis-policy FILE       who may do what with this PEIS's tuples (YAML; with\n"
@@ -334,8 +327,6 @@ std::string Options::helpText() {
          "  --peis-quota-total-bytes B  ... all remote writers together (default 256 MiB)\n"
          "  --peis-id-claim-ms MS    how long after start this PEIS gives its id up to an\n"
          "                           earlier holder (default 10000)\n"
-         "  --peis-max-demand-links N  direct links for heavy flows besides the\n"
-         "                           overlay's (default 4)\n"
          "  --peis-relay-grace-ms MS how long a PEIS's frames still come the old way after\n"
          "                           its route changed (default 2000)\n"
          "  --help, -h               show this help\n"

@@ -376,15 +376,3 @@ TEST_CASE("the limits' flags (docs/security.md)", "[unit][options]") {
   CHECK_THAT(failure({"--peis-relay-grace-ms", "60001"}), Contains("--peis-relay-grace-ms"));
   CHECK_THAT(failure({"--peis-id-claim-ms", "-1"}), Contains("--peis-id-claim-ms"));
 }
-
-TEST_CASE("the demand link flags (docs/protocol.md §6)", "[unit][options]") {
-  const auto defaults = parse({});
-  CHECK(defaults.demandLinkRate == 512u << 10);
-  CHECK(defaults.limits.maxDemandLinks == 4);
-  const auto o = parse({"--peis-demand-link-rate", "0", "--peis-max-demand-links=2"});
-  CHECK(o.demandLinkRate == 0);
-  CHECK(o.limits.maxDemandLinks == 2);
-  CHECK(peis::Options::isValueFlag("--peis-demand-link-rate"));
-  CHECK_THAT(failure({"--peis-demand-link-rate", "x"}), Contains("--peis-demand-link-rate"));
-  CHECK_THAT(failure({"--peis-max-demand-links", "0"}), Contains("--peis-max-demand-links"));
-}

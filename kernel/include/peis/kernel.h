@@ -71,9 +71,6 @@ struct NetworkStats {
   // Of framesOut: the frames a writing thread sent to its link itself (a
   // direct send, docs/architecture.md), sealed on a secured link.
   std::uint64_t directFramesOut = 0;
-  // Bytes of routed frames this PEIS forwarded for others (as a relay), and
-  // the demand links it dialled for heavy flows (docs/protocol.md §6).
-  std::uint64_t bytesRelayed = 0, demandDials = 0;
 };
 
 // Writes this PEIS refused as the owner (docs/security.md): over a remote

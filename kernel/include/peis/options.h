@@ -50,9 +50,6 @@ struct Limits {
   // frames sent while the routes changed. In that time a neighbour offering
   // a route to it could forge them (docs/security.md).
   std::chrono::milliseconds relayGrace{2000};  // --peis-relay-grace-ms
-  // Demand links (docs/protocol.md §6) this PEIS keeps at most besides the
-  // overlay's: direct links to PEIS it has a heavy flow with.
-  std::size_t maxDemandLinks = 4;  // --peis-max-demand-links
 };
 
 struct Options {
@@ -69,13 +66,8 @@ struct Options {
   std::chrono::milliseconds writeTimeout{5000};       // a remote write's deadline
   std::chrono::milliseconds subscriptionLease{6000};  // renewed every third of it
   bool network = true;                                // false: a PEIS on its own, no sockets at all
-  // A flow between this PEIS and another (sent as their source or received
-  // as their destination) of at least this many bytes a second over 2 s,
-  // when it goes through relays, gets a direct link (a demand link,
-  // docs/protocol.md §6); 0: never.
-  std::uint64_t demandLinkRate = 512u << 10;  // --peis-demand-link-rate BYTES_PER_S
   Limits limits;  // --peis-handshake-ms, --peis-max-*, --peis-quota-*, --peis-id-claim-ms,
-                  // --peis-relay-grace-ms, --peis-max-demand-links
+                  // --peis-relay-grace-ms
   // A credentials file of a secured ecology (docs/security.md): the PEIS
   // joins that ecology only, over authenticated and encrypted links.
   std::string credentials;  // --peis-credentials FILE (PEIS_CREDENTIALS)

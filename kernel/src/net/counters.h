@@ -23,8 +23,6 @@ struct Counters {
   std::uint64_t malformedBeacons = 0;
   std::uint64_t beaconsSuppressed = 0;      // periodic beacons skipped (docs/protocol.md §6)
   std::uint64_t slowPeersDisconnected = 0;  // links closed for reading too slowly (§13)
-  std::uint64_t bytesRelayed = 0;           // bytes of routed frames forwarded for other PEIS (§8)
-  std::uint64_t demandDials = 0;            // demand links dialled for heavy flows (§6)
   // Limits against misbehaving peers (docs/security.md, "Limits"):
   std::uint64_t handshakeTimeouts = 0;   // connections closed at the handshake deadline
   std::uint64_t connectionsRefused = 0;  // accepted connections over a connection cap

@@ -16,7 +16,6 @@
 #include <boost/asio/steady_timer.hpp>
 #include <deque>
 #include <map>
-#include <mutex>
 #include <set>
 
 #include "log.h"
@@ -24,7 +23,6 @@
 #include "net/link.h"
 #include "net/link_policy.h"
 #include "net/link_security.h"
-#include "net/overlay.h"
 #include "net/routing_table.h"
 #include "peis/error.h"
 #include "peis/key.h"
@@ -52,12 +50,6 @@ constexpr std::chrono::seconds kLimitLogEvery{10};
 // How many liveness times a silent peer whose host still acknowledges our
 // bytes is given (see pingLoop).
 constexpr int kSlowPeerGrace = 4;
-// Bytes of direct sends to one PEIS that are merged into the demand meter at
-// once rather than at its next step.
-constexpr std::uint64_t kDirectMergeBytes = 256 * 1024;
-// How long after a demand dial to a PEIS failed, or its link closed, it is
-// not dialled for its flow again.
-constexpr std::chrono::seconds kDemandRetry{2};
 
 }  // namespace
 
@@ -83,8 +75,6 @@ class Network::Impl final : public LinkHandler {
         acceptRetry_(io),
         pruneTimer_(io),
         holdTimer_(io),
-        demandTimer_(io),
-        demand_(config_.demand),
         explicitLinks_(config_.connect.size()) {
     if (const auto& credentials = config_.credentials) {
       anchor_ = security::TrustAnchor{credentials->certificate.ecology, credentials->rootKey};
@@ -114,17 +104,6 @@ class Network::Impl final : public LinkHandler {
     return link;
   }
   std::size_t congestedAboveBytes() const { return config_.coalesceAboveBytes; }
-  void noteDirectSent(PeisId destination, std::size_t bytes) {
-    std::lock_guard<std::mutex> lock(directMu_);
-    // Merged into the meter at its next step, or at once when they add up.
-    if ((directBytes_[destination] += bytes) < kDirectMergeBytes || directMergePosted_) return;
-    directMergePosted_ = true;
-    asio::post(io_, [this] {
-      if (stopped_) return;
-      mergeDirect();
-      evaluateDemand();
-    });
-  }
   std::uint16_t listenPort() const {
     boost::system::error_code ec;
     const auto endpoint = acceptor_.local_endpoint(ec);
@@ -218,23 +197,6 @@ class Network::Impl final : public LinkHandler {
   // PEIS starting together do not link to every target they pass through.
   void scheduleDials();
   void pruneLinks();
-  // Dials `target` at the address its beacons gave.
-  void dialPeer(PeisId target, const boost::asio::ip::address& address, std::uint16_t port);
-  // Demand links: every step of the demand window, measures this PEIS's
-  // flows and dials the PEIS of heavy ones it reaches only through relays.
-  void demandLoop();
-  void evaluateDemand();
-  // Counts bytes of a flow of ours; a flow they make heavy is looked at at
-  // once (a relay queues it meanwhile).
-  void noteOwn(PeisId peer, std::uint64_t bytes) {
-    if (!demand_.add(peer, bytes) || demandPosted_) return;
-    demandPosted_ = true;
-    asio::post(io_, [this] {
-      demandPosted_ = false;
-      if (!stopped_) evaluateDemand();
-    });
-  }
-  void mergeDirect();
   // Runs pruneLinks once the membership and the links have been settled for
   // kLinkGrace (not only at the next beacon, which may be 8 s away).
   void schedulePrune();
@@ -265,18 +227,7 @@ class Network::Impl final : public LinkHandler {
   RoutingTable table_;
   Discovery discovery_;
   tcp::acceptor acceptor_;
-  asio::steady_timer pingTimer_, redialTimer_, dialTimer_, acceptRetry_, pruneTimer_, holdTimer_,
-      demandTimer_;
-  DemandMeter demand_;
-  std::set<PeisId> demandDialing_;  // demand dials under way (part of dialing_)
-  // PEIS whose demand dial failed or whose link closed, and when they may be
-  // dialled for their flow again (a PEIS that died still has a heavy flow
-  // for a moment, and a route through relays until its routes are gone).
-  std::map<PeisId, SteadyClock::time_point> demandRetry_;
-  bool demandPosted_ = false;
-  std::mutex directMu_;  // guards directBytes_ and directMergePosted_ (any thread)
-  std::map<PeisId, std::uint64_t> directBytes_;
-  bool directMergePosted_ = false;
+  asio::steady_timer pingTimer_, redialTimer_, dialTimer_, acceptRetry_, pruneTimer_, holdTimer_;
   std::optional<SteadyClock::time_point> holdArmed_;
   std::function<void()> closed_;  // after stop(): runs once no link is left
   bool pruneArmed_ = false;
@@ -362,7 +313,6 @@ void Network::Impl::start() {
   }
   pingLoop();
   redialLoop();
-  demandLoop();
 }
 
 void Network::Impl::stop(std::function<void()> closed) {
@@ -379,7 +329,6 @@ void Network::Impl::stop(std::function<void()> closed) {
   pruneTimer_.cancel();
   acceptRetry_.cancel();
   holdTimer_.cancel();
-  demandTimer_.cancel();
   // A clean leave: every PEIS forgets this one at once instead of waiting
   // for its routes to time out (the Leave floods, docs/protocol.md §8).
   auto links = links_;
@@ -513,11 +462,7 @@ void Network::Impl::onClosed(Link& link, const std::string& reason) {
   links_.erase(std::remove_if(links_.begin(), links_.end(),
                               [&](const std::shared_ptr<Link>& l) { return l.get() == &link; }),
                links_.end());
-  if (link.dialTarget_ != 0) {
-    dialing_.erase(link.dialTarget_);
-    demandDialing_.erase(link.dialTarget_);
-  }
-  if (link.established_) demandRetry_[link.peer_.id] = SteadyClock::now() + kDemandRetry;
+  if (link.dialTarget_ != 0) dialing_.erase(link.dialTarget_);
   if (stopped_) {
     if (links_.empty() && closed_) std::exchange(closed_, {})();
     return;
@@ -683,7 +628,6 @@ void Network::Impl::establishOrClose(Link& link, const wire::Hello& hello) {
   if (link.explicitIndex_ < 0) schedulePrune();
   link.peer_ = hello;
   dialing_.erase(hello.id);
-  demandDialing_.erase(hello.id);
   log::info(self_, "linked to PEIS " + std::to_string(hello.id) + " '" + hello.name + "' at " +
                        link.remote_ + (link.outbound_ ? " (dialled)" : " (accepted)"));
   table_.linkUp(hello);
@@ -881,7 +825,6 @@ void Network::Impl::collision(std::uint64_t otherIncarnation) {
   log::warn(old, "id " + std::to_string(old) + " is held by a PEIS that started earlier; now " +
                      std::to_string(self_));
   table_.reset(self_);
-  demand_.clear();
   ++routesEpoch_;
   if (secured()) {
     ownIdentity_ = security::makeIdentity(*config_.credentials, self_, incarnation_, config_.name);
@@ -1085,7 +1028,6 @@ void Network::Impl::recompute() {
   afterTable();
   retryHeld();
   for (const PeisId id : changes.down) {
-    demand_.forget(id);
     if (events_.onPeerDown) events_.onPeerDown(id);
   }
   for (const PeisId id : changes.up) {
@@ -1197,7 +1139,6 @@ void Network::Impl::onRouted(Link& link, std::string_view frame) {
     }
   }
   if (envelope.destination == self_) {
-    noteOwn(envelope.source, frame.size() + wire::kFrameHeaderBytes);
     // In a secured ecology a frame from further away proves its source.
     if (link.security_ && envelope.source != link.peer_.id &&
         !tagHolds(envelope.source, tag, frame)) {
@@ -1254,7 +1195,6 @@ void Network::Impl::forwardFrame(std::string_view frame, const wire::Envelope& e
   auto routedEnvelope = envelope;
   --routedEnvelope.ttl;
   wire::reEnvelope(copy, routedEnvelope);
-  counters_.bytesRelayed += copy.size();
   forward(envelope.destination, std::move(copy), envelope.source, tag);
 }
 
@@ -1347,16 +1287,13 @@ bool Network::Impl::forward(PeisId destination, std::string frame, PeisId relaye
 bool Network::Impl::send(wire::RoutedMessage message) {
   message.envelope.source = self_;
   if (message.envelope.ttl == 0) message.envelope.ttl = wire::kDefaultTtl;
-  auto frame = wire::encodeFrame(message);
-  noteOwn(message.envelope.destination, frame.size());
-  return forward(message.envelope.destination, std::move(frame));
+  return forward(message.envelope.destination, wire::encodeFrame(message));
 }
 
 bool Network::Impl::sendUpdate(PeisId destination, std::uint64_t incarnation,
                                const std::shared_ptr<const Tuple>& tuple) {
   auto* link = nextHopLink(destination);
   if (!link) return false;
-  noteOwn(destination, tuple->data.size() + tuple->key.size());
   if (link->security_ && link->peer_.id != destination) {  // over relays: tagged
     std::string frame;
     wire::encodeTupleUpdate(wire::Envelope{self_, destination, wire::kDefaultTtl}, incarnation,
@@ -1374,7 +1311,6 @@ bool Network::Impl::sendFrames(PeisId destination, std::string_view frames, std:
     counters_.unroutable += count;
     return false;
   }
-  noteOwn(destination, frames.size());
   if (link->security_ && next != destination) {  // over relays: each frame tagged
     while (frames.size() >= wire::kFrameHeaderBytes) {
       const auto bytes = wire::kFrameHeaderBytes + wire::frameLength(frames);
@@ -1415,85 +1351,17 @@ void Network::Impl::evaluateDials() {
     if (!peer) continue;
     log::debug(self_, "dialling PEIS " + std::to_string(target) + " (overlay of " +
                           std::to_string(ids.size()) + ")");
-    dialPeer(target, peer->address, peer->port);
-  }
-}
-
-void Network::Impl::dialPeer(PeisId target, const asio::ip::address& address, std::uint16_t port) {
-  dialing_.insert(target);
-  auto socket = std::make_shared<tcp::socket>(io_);
-  socket->async_connect(tcp::endpoint(address, port),
-                        [this, socket, target](const boost::system::error_code& ec) {
-                          if (stopped_) return;
-                          if (ec) {
-                            dialing_.erase(target);
-                            if (demandDialing_.erase(target) != 0) {
-                              demandRetry_[target] = SteadyClock::now() + kDemandRetry;
+    dialing_.insert(target);
+    auto socket = std::make_shared<tcp::socket>(io_);
+    socket->async_connect(tcp::endpoint(peer->address, peer->port),
+                          [this, socket, target](const boost::system::error_code& ec) {
+                            if (stopped_) return;
+                            if (ec) {
+                              dialing_.erase(target);
+                              return;
                             }
-                            return;
-                          }
-                          addLink(std::move(*socket), true, -1, target);
-                        });
-}
-
-void Network::Impl::demandLoop() {
-  if (config_.demand.bytesPerSecond == 0 || config_.tool) return;
-  demandTimer_.expires_after(config_.demand.window / DemandMeter::kSteps);
-  demandTimer_.async_wait([this](const boost::system::error_code& ec) {
-    if (ec || stopped_) return;
-    mergeDirect();
-    demand_.tick(SteadyClock::now());
-    evaluateDemand();
-    demandLoop();
-  });
-}
-
-void Network::Impl::mergeDirect() {
-  std::map<PeisId, std::uint64_t> direct;
-  {
-    std::lock_guard<std::mutex> lock(directMu_);
-    direct.swap(directBytes_);
-    directMergePosted_ = false;
-  }
-  for (const auto& [destination, bytes] : direct) demand_.add(destination, bytes);
-}
-
-// A heavy flow to or from a PEIS whose frames go through relays gets a
-// direct link, so no relay carries (and queues) a flow that is not its own.
-void Network::Impl::evaluateDemand() {
-  const auto heavyIds = demand_.heavyPeers();
-  if (heavyIds.empty()) return;
-  const auto ids = discovery_.sortedIds();
-  std::size_t demandLinks = demandDialing_.size();
-  for (const auto& link : links_) {
-    if (!link->established_ || link->explicitIndex_ >= 0) continue;
-    const PeisId peer = link->peer_.id;
-    if (std::binary_search(ids.begin(), ids.end(), peer) && !overlayWantsSorted(ids, self_, peer)) {
-      ++demandLinks;
-    }
-  }
-  std::vector<DemandPeer> heavy;
-  const auto now = SteadyClock::now();
-  for (auto it = demandRetry_.begin(); it != demandRetry_.end();) {
-    it = it->second <= now ? demandRetry_.erase(it) : std::next(it);
-  }
-  for (const PeisId id : heavyIds) {
-    const auto* route = table_.find(id);
-    if (!route || demandRetry_.count(id) != 0) continue;  // gone, or it just failed
-    const auto* beacon = discovery_.peer(id);
-    heavy.push_back(DemandPeer{id, findLink(id) != nullptr, dialing_.count(id) != 0,
-                               route->tool || (beacon && beacon->tool), beacon != nullptr});
-  }
-  for (const PeisId target : demandDials(heavy, demandLinks, config_.demand, config_.tool)) {
-    const auto* beacon = discovery_.peer(target);
-    const auto* route = table_.find(target);
-    ++counters_.demandDials;
-    log::info(self_, "dialling PEIS " + std::to_string(target) + " directly: a flow of " +
-                         std::to_string(demand_.rate(target) >> 10) + " KiB/s goes through " +
-                         "relay PEIS " + std::to_string(route ? route->nextHop : 0) +
-                         " (demand link)");
-    demandDialing_.insert(target);
-    dialPeer(target, beacon->address, beacon->port);
+                            addLink(std::move(*socket), true, -1, target);
+                          });
   }
 }
 
@@ -1544,8 +1412,7 @@ void Network::Impl::pruneLinks() {
                                  discovery_.knows(peer),
                                  now - link->establishedAt_,
                                  table_.hasAlternative(peer),
-                                 (link->peer_.capabilities & wire::kCapabilityTool) != 0,
-                                 demand_.busy(peer, now)};
+                                 (link->peer_.capabilities & wire::kCapabilityTool) != 0};
     if (shouldPrune(ids, self_, question)) link->close("not needed by the overlay");
   }
 }
@@ -1596,9 +1463,6 @@ std::shared_ptr<Link> Network::linkTowards(PeisId destination) const {
   return impl_->linkTowards(destination);
 }
 std::size_t Network::congestedAboveBytes() const { return impl_->congestedAboveBytes(); }
-void Network::noteDirectSent(PeisId destination, std::size_t bytes) {
-  impl_->noteDirectSent(destination, bytes);
-}
 std::vector<PeerInfo> Network::peers() const { return impl_->peers(); }
 std::vector<LinkInfo> Network::links() const { return impl_->links(); }
 const Counters& Network::counters() const { return impl_->counters_; }

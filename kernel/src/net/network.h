@@ -18,7 +18,6 @@
 
 #include "net/counters.h"
 #include "net/discovery.h"
-#include "net/link_policy.h"
 #include "net/wire.h"
 #include "peis/types.h"
 
@@ -61,9 +60,6 @@ struct NetworkConfig {
   std::chrono::milliseconds idClaimWindow{10000};
   // How long frames of a PEIS whose route changed still come the old way.
   std::chrono::milliseconds relayGrace{2000};
-  // Demand links (docs/protocol.md §6): a heavy flow of this PEIS to or
-  // from a PEIS it is not linked to gets a direct link.
-  DemandConfig demand;
   // A secured ecology's credentials (docs/security.md): links are then
   // authenticated and encrypted, routes, names and ids checked against the
   // identities PEIS prove. Null: an open ecology.
@@ -152,10 +148,6 @@ class Network {
   // direct sends from other threads (Link::sendNow, which seals on a
   // secured link); valid until the next onTopology.
   std::shared_ptr<Link> linkTowards(PeisId destination) const;
-  // Notes `bytes` of own frames that another thread sent to `destination`
-  // itself (a direct send through linkTowards), for the demand meter. Any
-  // thread.
-  void noteDirectSent(PeisId destination, std::size_t bytes);
   // The backlog above which a link counts as congested (coalesceAboveBytes).
   std::size_t congestedAboveBytes() const;
 
