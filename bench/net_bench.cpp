@@ -30,6 +30,7 @@
 
 #include "bench_stats.h"
 #include "child_process.h"
+#include "security/record_cipher.h"
 
 namespace {
 
@@ -526,6 +527,9 @@ void securityComparison(const std::string& ecology) {
   const auto securedSetup = linkSetupMillis(secured, credentials, 21);
   std::printf("| link set-up, start to linked (ms, p50 of 21) | - | %.2f | %.2f | %.2fx |\n\n",
               openSetup, securedSetup, securedSetup / openSetup);
+  std::printf(
+      "The secured links' records: AES-256-GCM by %s (the faster on this CPU).\n\n",
+      peis::security::RecordCipher::implementation(peis::security::CipherSuite::Aes256Gcm).c_str());
   std::fflush(stdout);
   std::filesystem::remove_all(dir);
 }
