@@ -81,7 +81,7 @@ struct Backend {
   // aeadFree.
   AeadContext* (*aeadNew)(AeadImplementation implementation, const unsigned char* key);
   // The library that runs `implementation` here ("libgcrypt", "ipsec-mb
-  // (AVX-512)", ...), or nullptr when it is not in this module or CPU.
+  // (AVX-512, VAES)"), or nullptr when it is not in this module or CPU.
   const char* (*aeadName)(AeadImplementation implementation);
   void (*aeadFree)(AeadContext* context);
   // One record: `text` (`bytes`) under the 12-byte nonce and the associated

@@ -34,8 +34,7 @@ class RecordCipher {
   static constexpr std::size_t kHeaderBytes = 4;
   static constexpr std::size_t kTagBytes = 16;
   static constexpr std::size_t kOverheadBytes = kHeaderBytes + kTagBytes;
-  // Records of 16 KiB (TLS's size): sealed and opened while in the caches,
-  // and a big frame's first records travel while the next are sealed.
+  // Records of 16 KiB (TLS's size): sealed and opened while in the caches.
   static constexpr std::size_t kMaxPlainBytes = 16 * 1024;
 
   // Whether this host runs AES-256-GCM in hardware (libsodium's check).

@@ -2,14 +2,14 @@
 //
 // AES-256-GCM has two implementations here that seal the same bytes: the
 // one of libgcrypt (its VAES code works on 256-bit registers) and, where
-// the module was built with it (x86-64), the one of Intel's ipsec-mb
-// (whose VAES/VPCLMULQDQ code works on 512-bit registers). Which is faster
-// depends on the CPU: on an Intel Xeon with AVX-512 ipsec-mb's sealed a
-// 16 KiB record in 1.3 µs against libgcrypt's 3.1 µs; on CPUs that split
-// 512-bit operations in two, or have no VAES, it may not win. So the first
-// AES context of a process measures both (a few records, about 0.1 ms once)
-// and takes the faster, as Linux picks its RAID-6 code at boot; both
-// sealing the same records is checked at the same time, and
+// the module was built with it (x86-64) and the CPU has AVX-512 with VAES
+// and VPCLMULQDQ, the one of Intel's ipsec-mb (on 512-bit registers).
+// Which is faster depends on the CPU: on an Intel Xeon with AVX-512
+// ipsec-mb's sealed a 16 KiB record in 1.3 µs against libgcrypt's 3.1 µs;
+// on CPUs that split 512-bit operations in two it may not win. So the
+// first AES context of a process measures both (a few records, about
+// 0.05 ms once) and takes the faster, as Linux picks its RAID-6 code at
+// boot; both sealing the same records is checked at the same time, and
 // $PEIS_RECORD_AEAD (`libgcrypt` or `ipsec-mb`) overrides the measurement.
 #include "security/module/record_aead.h"
 
@@ -75,9 +75,12 @@ AeadContext* newLibgcrypt(bool aes, const unsigned char* key) {
 }
 
 #ifdef PEIS_HAVE_IPSEC_MB
-// ipsec-mb's AES-256-GCM for this CPU (its own choice of code: SSE, AVX2,
-// AVX-512 with VAES, ...): the functions, taken from a manager that is
-// freed at once (the direct GCM calls keep no state in it).
+// ipsec-mb's AES-256-GCM where the CPU runs its AVX-512 VAES/VPCLMULQDQ
+// code: the functions, taken from a manager that is freed at once (the
+// direct GCM calls keep no state in it). Elsewhere it is not considered:
+// its SSE and AVX2 code sealed 16 KiB no faster than libgcrypt's here, and
+// setting up a manager costs 0.2-0.5 ms and maps about 3 MiB of its code
+// (shared between processes).
 struct IpsecMb {
   aes_gcm_pre_t expandKey = nullptr;
   aes_gcm_enc_dec_t seal = nullptr;
@@ -88,34 +91,21 @@ struct IpsecMb {
 const IpsecMb& ipsecMb() {
   static const IpsecMb found = [] {
     IpsecMb out;
+    if (!__builtin_cpu_supports("avx512f") || !__builtin_cpu_supports("avx512vl") ||
+        !__builtin_cpu_supports("vaes") || !__builtin_cpu_supports("vpclmulqdq")) {
+      return out;
+    }
     IMB_MGR* manager = alloc_mb_mgr(0);
     if (manager == nullptr) return out;
     IMB_ARCH arch = IMB_ARCH_NONE;
     init_mb_mgr_auto(manager, &arch);
-    const bool vaes = (manager->features & IMB_FEATURE_VAES) != 0 &&
-                      (manager->features & IMB_FEATURE_VPCLMULQDQ) != 0;
-    switch (arch) {
-      case IMB_ARCH_AVX512:
-        out.name = vaes ? "ipsec-mb (AVX-512, VAES)" : "ipsec-mb (AVX-512)";
-        break;
-      case IMB_ARCH_AVX2:
-        out.name = "ipsec-mb (AVX2)";
-        break;
-      case IMB_ARCH_AVX:
-        out.name = "ipsec-mb (AVX)";
-        break;
-      case IMB_ARCH_SSE:
-        out.name = "ipsec-mb (SSE)";
-        break;
-      default:  // no AES-NI: not ipsec-mb's
-        break;
-    }
-    if (out.name != nullptr && imb_get_errno(manager) == 0) {
+    const auto vaes = IMB_FEATURE_VAES | IMB_FEATURE_VPCLMULQDQ;
+    if (arch == IMB_ARCH_AVX512 && (manager->features & vaes) == vaes &&
+        imb_get_errno(manager) == 0) {
+      out.name = "ipsec-mb (AVX-512, VAES)";
       out.expandKey = manager->gcm256_pre;
       out.seal = manager->gcm256_enc;
       out.open = manager->gcm256_dec;
-    } else {
-      out.name = nullptr;
     }
     free_mb_mgr(manager);
     return out;
