@@ -2,8 +2,10 @@
 // round trips of every size class for both suites, the records byte for byte
 // against known answers of the standard AEADs (the wire format of
 // docs/protocol.md §15.5), and a changed, replayed, reordered, wrongly
-// keyed, oversized or partial record. The AEAD is the security module's
-// (libgcrypt), which the first RecordCipher loads (security/backend.h).
+// keyed, oversized or partial record, for every implementation of the
+// AEADs in the security module (AES-256-GCM: the faster here, libgcrypt's
+// and ipsec-mb's; each other's records open), which the first RecordCipher
+// loads (security/backend.h).
 #include "security/record_cipher.h"
 
 #include <catch2/catch.hpp>
@@ -11,6 +13,7 @@
 #include <string>
 #include <vector>
 
+using peis::security::AeadImplementation;
 using peis::security::CipherSuite;
 using peis::security::RecordCipher;
 
@@ -59,14 +62,31 @@ std::string openAll(RecordCipher& cipher, const std::string& records) {
   return plain;
 }
 
-std::vector<CipherSuite> suites() {
-  std::vector<CipherSuite> all{CipherSuite::ChaCha20Poly1305};
-  if (RecordCipher::aesAvailable()) all.push_back(CipherSuite::Aes256Gcm);
+// A suite with one implementation of it.
+struct Kind {
+  CipherSuite suite;
+  AeadImplementation aes;
+  std::string name;
+};
+
+// ChaCha20-Poly1305, and AES-256-GCM (where the CPU has it) by each
+// implementation of this module and CPU: the one records use by default,
+// and each by name.
+std::vector<Kind> kinds() {
+  std::vector<Kind> all{
+      {CipherSuite::ChaCha20Poly1305, AeadImplementation::Aes256Gcm,
+       "ChaCha20-Poly1305 (" + RecordCipher::implementation(CipherSuite::ChaCha20Poly1305) + ")"}};
+  if (!RecordCipher::aesAvailable()) return all;
+  for (const auto aes : {AeadImplementation::Aes256Gcm, AeadImplementation::Aes256GcmLibgcrypt,
+                         AeadImplementation::Aes256GcmIpsecMb}) {
+    const auto name = RecordCipher::implementation(CipherSuite::Aes256Gcm, aes);
+    if (!name.empty()) all.push_back({CipherSuite::Aes256Gcm, aes, "AES-256-GCM (" + name + ")"});
+  }
   return all;
 }
 
-const char* nameOf(CipherSuite suite) {
-  return suite == CipherSuite::Aes256Gcm ? "AES-256-GCM" : "ChaCha20-Poly1305";
+RecordCipher cipherOf(const Kind& kind, const std::string& sendKey, const std::string& receiveKey) {
+  return RecordCipher(kind.suite, sendKey, receiveKey, kind.aes);
 }
 
 // FNV-1a (64 bits) of the records: a known answer that needs no library.
@@ -86,9 +106,9 @@ std::string hex(const std::string& bytes) {
 }  // namespace
 
 TEST_CASE("security: record cipher round trips of every size, both suites", "[unit]") {
-  for (const auto suite : suites()) {
-    INFO(nameOf(suite));
-    RecordCipher a(suite, kKeyA, kKeyB), b(suite, kKeyB, kKeyA);
+  for (const auto& kind : kinds()) {
+    INFO(kind.name);
+    RecordCipher a(kind.suite, kKeyA, kKeyB, kind.aes), b(kind.suite, kKeyB, kKeyA, kind.aes);
     for (std::size_t bytes :
          {1u, 15u, 16u, 17u, 100u, 1024u, 1100u, 4096u, 16383u, 16384u, 16385u, 65536u + 40u}) {
       INFO(bytes << " bytes");
@@ -114,10 +134,10 @@ TEST_CASE("security: records are the standard AEADs byte for byte (the wire form
     std::size_t bytes;
     std::uint64_t fnv;
   };
-  for (const auto suite : suites()) {
-    INFO(nameOf(suite));
-    const bool aes = suite == CipherSuite::Aes256Gcm;
-    RecordCipher a(suite, kKeyA, kKeyB);
+  for (const auto& kind : kinds()) {
+    INFO(kind.name);
+    const bool aes = kind.suite == CipherSuite::Aes256Gcm;
+    RecordCipher a(kind.suite, kKeyA, kKeyB, kind.aes);
     std::string records;
     a.seal(pattern(16), records);
     CHECK(hex(records) ==
@@ -136,41 +156,70 @@ TEST_CASE("security: records are the standard AEADs byte for byte (the wire form
   }
 }
 
+// Each implementation of AES-256-GCM opens the others' records, and theirs
+// of every size (several records per seal) and direction.
+TEST_CASE("security: the implementations of AES-256-GCM open each other's records", "[unit]") {
+  std::vector<Kind> aes;
+  for (const auto& kind : kinds()) {
+    if (kind.suite == CipherSuite::Aes256Gcm) aes.push_back(kind);
+  }
+  for (const auto& sealer : aes) {
+    for (const auto& opener : aes) {
+      INFO(sealer.name << " sealed, " << opener.name << " opened");
+      RecordCipher a(sealer.suite, kKeyA, kKeyB, sealer.aes),
+          b(opener.suite, kKeyB, kKeyA, opener.aes);
+      for (std::size_t bytes : {1u, 16u, 1100u, 16384u, 65536u + 40u}) {
+        INFO(bytes << " bytes");
+        std::string records;
+        a.seal(pattern(bytes), records);
+        CHECK(openAll(b, records) == pattern(bytes));
+        records.clear();
+        b.seal(pattern(bytes), records);
+        CHECK(openAll(a, records) == pattern(bytes));
+      }
+      std::string changed;
+      a.seal(pattern(100), changed);
+      changed[50] = static_cast<char>(changed[50] ^ 0x04);
+      CHECK(openOne(b, changed).verdict == RecordCipher::Open::Bad);
+    }
+  }
+}
+
 TEST_CASE("security: a changed, replayed, reordered or wrongly keyed record fails", "[unit]") {
-  for (const auto suite : suites()) {
-    INFO(nameOf(suite));
-    RecordCipher a(suite, kKeyA, kKeyB);
+  for (const auto& kind : kinds()) {
+    INFO(kind.name);
+    RecordCipher a = cipherOf(kind, kKeyA, kKeyB);
     std::string first, second;
     a.seal(pattern(1024), first);
     a.seal(pattern(16), second);
 
     SECTION("a bit changed in the ciphertext, the tag or the length") {
       for (std::size_t at : {std::size_t{4}, std::size_t{500}, first.size() - 1}) {
-        RecordCipher b(suite, kKeyB, kKeyA);
+        RecordCipher b = cipherOf(kind, kKeyB, kKeyA);
         auto changed = first;
         changed[at] = static_cast<char>(changed[at] ^ 0x01);
         CHECK(openOne(b, changed).verdict == RecordCipher::Open::Bad);
       }
-      RecordCipher b(suite, kKeyB, kKeyA);
+      RecordCipher b = cipherOf(kind, kKeyB, kKeyA);
       auto shorter = first;
       shorter[3] = static_cast<char>(shorter[3] - 1);  // one byte less: the tag moves
       CHECK(openOne(b, shorter).verdict == RecordCipher::Open::Bad);
     }
     SECTION("replayed") {
-      RecordCipher b(suite, kKeyB, kKeyA);
+      RecordCipher b = cipherOf(kind, kKeyB, kKeyA);
       CHECK(openOne(b, first).verdict == RecordCipher::Open::Opened);
       CHECK(openOne(b, first).verdict == RecordCipher::Open::Bad);
     }
     SECTION("reordered") {
-      RecordCipher b(suite, kKeyB, kKeyA);
+      RecordCipher b = cipherOf(kind, kKeyB, kKeyA);
       CHECK(openOne(b, second).verdict == RecordCipher::Open::Bad);
     }
     SECTION("wrongly keyed") {
-      RecordCipher b(suite, kKeyB, kKeyB);  // receives under the wrong key
+      RecordCipher b = cipherOf(kind, kKeyB, kKeyB);  // receives under the wrong key
       CHECK(openOne(b, first).verdict == RecordCipher::Open::Bad);
     }
     SECTION("after a good record, the next opens; a failed one is not counted") {
-      RecordCipher b(suite, kKeyB, kKeyA);
+      RecordCipher b = cipherOf(kind, kKeyB, kKeyA);
       auto changed = second;
       changed[8] = static_cast<char>(changed[8] ^ 0x80);
       CHECK(openOne(b, first).verdict == RecordCipher::Open::Opened);
@@ -183,8 +232,8 @@ TEST_CASE("security: a changed, replayed, reordered or wrongly keyed record fail
 }
 
 TEST_CASE("security: record lengths: partial, out of range, over the handshake's limit", "[unit]") {
-  const auto suite = suites().back();
-  RecordCipher a(suite, kKeyA, kKeyB), b(suite, kKeyB, kKeyA);
+  const auto kind = kinds().back();
+  RecordCipher a = cipherOf(kind, kKeyA, kKeyB), b = cipherOf(kind, kKeyB, kKeyA);
   std::string records;
   a.seal(pattern(2000), records);
   CHECK(openOne(b, records, 0, 3).verdict == RecordCipher::Open::NeedMore);

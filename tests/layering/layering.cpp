@@ -13,8 +13,8 @@ constexpr std::string_view kBegin = "<!-- layering:begin -->";
 constexpr std::string_view kEnd = "<!-- layering:end -->";
 
 const std::set<std::string> kCategories = {
-    "c",      "c++",    "system",   "boost",      "yaml-cpp", "sqlite",    "catch2",   "eigen",
-    "opencv", "simavr", "avr-libc", "cyclonedds", "zeromq",   "libsodium", "libgcrypt"};
+    "c",      "c++",    "system",   "boost",      "yaml-cpp", "sqlite",    "catch2",    "eigen",
+    "opencv", "simavr", "avr-libc", "cyclonedds", "zeromq",   "libsodium", "libgcrypt", "ipsec-mb"};
 
 // The C standard library's headers (C99 and C11).
 const std::set<std::string> kCHeaders = {
@@ -183,6 +183,7 @@ std::string categoryOf(const Include& include) {
   if (name == "zmq.h") return "zeromq";
   if (name == "sodium.h" || startsWith(name, "sodium/")) return "libsodium";
   if (name == "gcrypt.h") return "libgcrypt";
+  if (name == "intel-ipsec-mb.h") return "ipsec-mb";
   if (startsWith(name, "sim_") || startsWith(name, "avr_") || startsWith(name, "simavr/"))
     return "simavr";
   return "system";  // POSIX and the rest of the operating system

@@ -107,6 +107,7 @@ TEST_CASE("outside headers fall into their library's category", "[unit]") {
   CHECK(categoryOf({"zmq.h", true}) == "zeromq");
   CHECK(categoryOf({"sodium.h", true}) == "libsodium");
   CHECK(categoryOf({"gcrypt.h", true}) == "libgcrypt");
+  CHECK(categoryOf({"intel-ipsec-mb.h", true}) == "ipsec-mb");
 }
 
 TEST_CASE("a folder may use its own files, the folders of its row and its categories", "[unit]") {

@@ -432,12 +432,27 @@ void Link::makeReadRoom(std::size_t want) {
 }
 
 // Room after recordsEnd_ for a read: the rest of the record under way, at
-// least readRoom_. A record is at most kMaxPlainBytes + its overhead
-// (before the handshake ends, kMaxHandshakeFrameBytes + it).
+// least readRoom_, and the records of the rest of a frame whose length is
+// known (its first records opened into in_), so a big frame's records
+// arrive in one read, as an open link's frame does (makeReadRoom): a
+// 64 KiB value took two reads and two wake-ups a hop. A record is at most
+// kMaxPlainBytes + its overhead (before the handshake ends,
+// kMaxHandshakeFrameBytes + it).
 void Link::makeRecordRoom() {
+  using security::RecordCipher;
   const auto pending = recordsEnd_ - recordsPos_;
-  const auto whole = security::RecordCipher::recordLength(records_.get() + recordsPos_, pending);
-  const auto want = std::max(readRoom_, whole > pending ? whole - pending : 0);
+  const auto whole = RecordCipher::recordLength(records_.get() + recordsPos_, pending);
+  auto want = std::max(readRoom_, whole > pending ? whole - pending : 0);
+  const std::size_t opened = inEnd_ - inPos_;
+  if (opened >= wire::kFrameHeaderBytes) {
+    const auto frame =
+        wire::kFrameHeaderBytes + wire::frameLength(std::string_view(in_.get() + inPos_, 4));
+    if (frame > opened && frame <= frameLimit() + wire::kFrameHeaderBytes) {
+      // (its records may be cut otherwise: one record's overhead more)
+      want =
+          std::max(want, RecordCipher::sealedBytes(frame - opened) + RecordCipher::kOverheadBytes);
+    }
+  }
   if (recordsCapacity_ - recordsEnd_ >= want) return;
   if (recordsPos_ > 0) {
     std::memmove(records_.get(), records_.get() + recordsPos_, pending);
@@ -482,6 +497,10 @@ bool Link::openRecords() {
     }
   }
   recordsPos_ = recordsEnd_ = 0;
+  if (recordsCapacity_ > (1u << 20)) {  // after a huge frame, as parse() lets in_ go
+    records_.reset();
+    recordsCapacity_ = 0;
+  }
   return true;
 }
 

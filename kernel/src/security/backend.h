@@ -1,4 +1,4 @@
-// Backend: what the security layer takes from libsodium, libgcrypt and
+// Backend: what the security layer takes from libsodium, libgcrypt, ipsec-mb and
 // yaml-cpp, as a table of functions that the security module
 // (libpeis-security.so, backend_module.cpp) fills in. The kernel loads that
 // module with dlopen the first time a secured ecology (or `peis keys`)
@@ -23,11 +23,23 @@ namespace peis::security {
 
 // Bumped whenever the table or the meaning of an entry changes: a kernel
 // takes a module only of its own version and revision (and table size).
-inline constexpr std::uint32_t kBackendRevision = 1;
+inline constexpr std::uint32_t kBackendRevision = 2;
 
 // One direction of a link's records: an AEAD keyed once (a libgcrypt
-// cipher handle).
+// cipher handle, or ipsec-mb's expanded AES-GCM keys).
 struct AeadContext;
+
+// The code that runs a link's records. AES-256-GCM has two in the module
+// (the same bytes on the wire): libgcrypt's and, on x86-64 builds, Intel's
+// ipsec-mb (AVX-512 VAES code); `Aes256Gcm` is whichever sealed faster on
+// this CPU when the module first measured them (module/record_aead.cpp),
+// unless $PEIS_RECORD_AEAD names one. Tests name them to compare them.
+enum class AeadImplementation : std::uint8_t {
+  Aes256Gcm,
+  Aes256GcmLibgcrypt,
+  Aes256GcmIpsecMb,
+  ChaCha20Poly1305,  // libgcrypt's
+};
 
 struct Backend {
   std::uint32_t revision;
@@ -62,11 +74,15 @@ struct Backend {
   void (*wipe)(void* data, std::size_t bytes);
   bool (*aesAvailable)();  // AES-NI and CLMUL (libsodium's check)
 
-  // libgcrypt (initialised on the first call): AES-256-GCM (`aes`) or
-  // ChaCha20-Poly1305 (IETF) keyed by the 32-byte `key`, to seal or open
-  // (the module may use one kind of context for both); nullptr on failure.
-  // Freed (and wiped) by aeadFree.
-  AeadContext* (*aeadNew)(bool aes, const unsigned char* key, bool seal);
+  // The records' AEAD (libgcrypt is initialised, and the implementations
+  // of AES-256-GCM compared, on the first call): `implementation` keyed by
+  // the 32-byte `key`, to seal or to open; nullptr on failure or when this
+  // module or CPU has not that implementation. Freed (and wiped) by
+  // aeadFree.
+  AeadContext* (*aeadNew)(AeadImplementation implementation, const unsigned char* key);
+  // The library that runs `implementation` here ("libgcrypt", "ipsec-mb
+  // (AVX-512, VAES)"), or nullptr when it is not in this module or CPU.
+  const char* (*aeadName)(AeadImplementation implementation);
   void (*aeadFree)(AeadContext* context);
   // One record: `text` (`bytes`) under the 12-byte nonce and the associated
   // data `ad`; sealing writes the ciphertext to `out` and the 16-byte tag

@@ -4,7 +4,8 @@
 // (docs/security.md, "Cryptography"): Ed25519 signatures (the trust root,
 // the PEIS keys), X25519 key exchange (crypto_kx for links, static keys for
 // the tags of relayed frames), BLAKE2b (transcripts, key derivation, tags).
-// The records of a secured link are libgcrypt's AEADs (record_cipher.cpp).
+// The records of a secured link are libgcrypt's or ipsec-mb's AEADs
+// (record_cipher.cpp).
 // No cryptography of our own: only the composition, which
 // docs/protocol.md §15 states.
 #pragma once

@@ -9,7 +9,7 @@
 
 namespace peis::security {
 
-// One AEAD context per direction, in the security module (libgcrypt).
+// One AEAD context per direction, in the security module.
 struct RecordCipher::Keys {
   AeadContext* send = nullptr;
   AeadContext* receive = nullptr;
@@ -26,12 +26,15 @@ void nonceOf(std::uint64_t counter, unsigned char nonce[12]) {
   for (int i = 0; i < 8; ++i) nonce[4 + i] = static_cast<unsigned char>(counter >> (56 - 8 * i));
 }
 
-AeadContext* keyed(CipherSuite suite, std::string_view key, bool seal) {
+AeadImplementation implementationOf(CipherSuite suite, AeadImplementation aes) {
+  return suite == CipherSuite::Aes256Gcm ? aes : AeadImplementation::ChaCha20Poly1305;
+}
+
+AeadContext* keyed(AeadImplementation implementation, std::string_view key) {
   if (key.size() != 32) throw std::runtime_error("the record cipher needs a 32-byte key");
-  auto* context = backend().aeadNew(suite == CipherSuite::Aes256Gcm,
-                                    reinterpret_cast<const unsigned char*>(key.data()), seal);
-  if (context == nullptr)
-    throw std::runtime_error("the record cipher cannot be set up (libgcrypt)");
+  auto* context =
+      backend().aeadNew(implementation, reinterpret_cast<const unsigned char*>(key.data()));
+  if (context == nullptr) throw std::runtime_error("the record cipher cannot be set up");
   return context;
 }
 
@@ -39,10 +42,16 @@ AeadContext* keyed(CipherSuite suite, std::string_view key, bool seal) {
 
 bool RecordCipher::aesAvailable() { return backend().aesAvailable(); }
 
-RecordCipher::RecordCipher(CipherSuite suite, std::string_view sendKey, std::string_view receiveKey)
+std::string RecordCipher::implementation(CipherSuite suite, AeadImplementation aes) {
+  const char* name = backend().aeadName(implementationOf(suite, aes));
+  return name != nullptr ? name : "";
+}
+
+RecordCipher::RecordCipher(CipherSuite suite, std::string_view sendKey, std::string_view receiveKey,
+                           AeadImplementation aes)
     : suite_(suite), keys_(std::make_unique<Keys>()) {
-  keys_->send = keyed(suite, sendKey, true);
-  keys_->receive = keyed(suite, receiveKey, false);
+  keys_->send = keyed(implementationOf(suite, aes), sendKey);
+  keys_->receive = keyed(implementationOf(suite, aes), receiveKey);
 }
 
 RecordCipher::~RecordCipher() = default;
@@ -70,7 +79,7 @@ std::size_t RecordCipher::seal(std::string_view plain, char* out) {
     const bool ok =
         backend().aeadSeal(keys_->send, nonce, record, kHeaderBytes,
                            reinterpret_cast<const unsigned char*>(plain.data()), n, text, text + n);
-    if (!ok) throw std::runtime_error("sealing a record failed (libgcrypt)");
+    if (!ok) throw std::runtime_error("sealing a record failed");
     plain.remove_prefix(n);
     record = text + n + kTagBytes;
   } while (!plain.empty());

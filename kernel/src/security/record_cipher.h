@@ -6,9 +6,10 @@
 //   record = u32 length L (17..kMaxPlainBytes + 16) | L − 16 bytes of
 //            ciphertext | 16-byte tag
 //   AEAD:  AES-256-GCM when both ends have it in hardware, else
-//          ChaCha20-Poly1305 (IETF, RFC 8439); libgcrypt's, in the
-//          security module (its AES-GCM uses VAES/VPCLMULQDQ where the CPU
-//          has them: docs/security.md, "What it costs").
+//          ChaCha20-Poly1305 (IETF, RFC 8439), in the security module:
+//          AES-256-GCM by libgcrypt or ipsec-mb, whichever is faster on
+//          this CPU (docs/security.md, "What it costs"), ChaCha20-Poly1305
+//          by libgcrypt.
 //   nonce: 4 zero bytes | u64 record number (per direction, from 0)
 //   associated data: the 4 length bytes
 //
@@ -22,6 +23,8 @@
 #include <string>
 #include <string_view>
 
+#include "security/backend.h"
+
 namespace peis::security {
 
 enum class CipherSuite : std::uint8_t { Aes256Gcm = 1, ChaCha20Poly1305 = 2 };
@@ -31,19 +34,25 @@ class RecordCipher {
   static constexpr std::size_t kHeaderBytes = 4;
   static constexpr std::size_t kTagBytes = 16;
   static constexpr std::size_t kOverheadBytes = kHeaderBytes + kTagBytes;
-  // Records of 16 KiB (TLS's size): sealed and opened while in the caches,
-  // and a big frame's first records travel while the next are sealed.
+  // Records of 16 KiB (TLS's size): sealed and opened while in the caches.
   static constexpr std::size_t kMaxPlainBytes = 16 * 1024;
 
   // Whether this host runs AES-256-GCM in hardware (libsodium's check).
   static bool aesAvailable();
 
-  RecordCipher(CipherSuite suite, std::string_view sendKey, std::string_view receiveKey);
+  // `aes`: which code runs AES-256-GCM, by default the faster here (the
+  // suite ChaCha20-Poly1305 ignores it); tests name one to compare them.
+  RecordCipher(CipherSuite suite, std::string_view sendKey, std::string_view receiveKey,
+               AeadImplementation aes = AeadImplementation::Aes256Gcm);
   ~RecordCipher();
   RecordCipher(const RecordCipher&) = delete;
   RecordCipher& operator=(const RecordCipher&) = delete;
 
   CipherSuite suite() const { return suite_; }
+  // The library that seals `suite`'s records in this process (with `aes`
+  // for AES-256-GCM); empty when this module or CPU has not that one.
+  static std::string implementation(CipherSuite suite,
+                                    AeadImplementation aes = AeadImplementation::Aes256Gcm);
   // The size of the records that seal `plainBytes`.
   static std::size_t sealedBytes(std::size_t plainBytes);
 

@@ -1,24 +1,18 @@
 // The security module (libpeis-security.so): the Backend table over
-// libsodium, libgcrypt (the records' AEAD) and yaml-cpp; see backend.h.
+// libsodium, yaml-cpp and the records' AEAD (libgcrypt and ipsec-mb,
+// record_aead.cpp); see backend.h.
 // Built as a module that only secured PEIS load (dlopen): nothing but its
 // entry point is exported, and no exception leaves it.
-#include <gcrypt.h>
 #include <sodium.h>
 #include <yaml-cpp/yaml.h>
 
 #include <cstring>
 #include <exception>
-#include <new>
 
 #include "security/backend.h"
+#include "security/module/record_aead.h"
 
 namespace peis::security {
-
-// A libgcrypt handle, keyed once; each record sets its nonce. Closing it
-// wipes the expanded key.
-struct AeadContext {
-  gcry_cipher_hd_t handle = nullptr;
-};
 
 namespace {
 
@@ -82,62 +76,6 @@ void wipe(void* data, std::size_t bytes) { sodium_memzero(data, bytes); }
 
 bool aesAvailable() { return crypto_aead_aes256gcm_is_available() != 0; }
 
-// libgcrypt is initialised once per process, on the first AEAD (a
-// function-local static: thread-safe), unless the program did it first; a
-// PEIS that only signs (`peis keys`) never does. No secure memory: the keys
-// live in ordinary memory, as libsodium's do, and are wiped on close.
-bool gcryptReady() {
-  static const bool ready = [] {
-    if (gcry_control(GCRYCTL_INITIALIZATION_FINISHED_P) != 0) return true;
-    if (gcry_check_version(GCRYPT_VERSION) == nullptr) return false;  // older than the headers
-    gcry_control(GCRYCTL_DISABLE_SECMEM, 0);
-    gcry_control(GCRYCTL_INITIALIZATION_FINISHED, 0);
-    return true;
-  }();
-  return ready;
-}
-
-// One handle serves both directions in libgcrypt: `seal` is not needed.
-AeadContext* aeadNew(bool aes, const unsigned char* key, bool /*seal*/) {
-  if (!gcryptReady()) return nullptr;
-  gcry_cipher_hd_t handle = nullptr;
-  const bool ok =
-      gcry_cipher_open(&handle, aes ? GCRY_CIPHER_AES256 : GCRY_CIPHER_CHACHA20,
-                       aes ? GCRY_CIPHER_MODE_GCM : GCRY_CIPHER_MODE_POLY1305, 0) == 0 &&
-      gcry_cipher_setkey(handle, key, 32) == 0;
-  auto* context = ok ? new (std::nothrow) AeadContext{handle} : nullptr;
-  if (context == nullptr) gcry_cipher_close(handle);  // nullptr: nothing
-  return context;
-}
-
-void aeadFree(AeadContext* context) {
-  if (context == nullptr) return;
-  gcry_cipher_close(context->handle);  // wipes the expanded key
-  delete context;
-}
-
-bool aeadSeal(AeadContext* context, const unsigned char* nonce, const unsigned char* ad,
-              std::size_t adBytes, const unsigned char* text, std::size_t bytes, unsigned char* out,
-              unsigned char* tag) {
-  auto* handle = context->handle;
-  return gcry_cipher_setiv(handle, nonce, 12) == 0 &&
-         gcry_cipher_authenticate(handle, ad, adBytes) == 0 &&
-         gcry_cipher_encrypt(handle, out, bytes, text, bytes) == 0 &&
-         gcry_cipher_gettag(handle, tag, 16) == 0;
-}
-
-// The tag is checked in constant time; a failed one leaves `out` written
-// but not to be taken (the link closes).
-bool aeadOpen(AeadContext* context, const unsigned char* nonce, const unsigned char* ad,
-              std::size_t adBytes, const unsigned char* text, std::size_t bytes, unsigned char* out,
-              unsigned char* tag) {
-  auto* handle = context->handle;
-  return gcry_cipher_setiv(handle, nonce, 12) == 0 &&
-         gcry_cipher_authenticate(handle, ad, adBytes) == 0 &&
-         gcry_cipher_decrypt(handle, out, bytes, text, bytes) == 0 &&
-         gcry_cipher_checktag(handle, tag, 16) == 0;
-}
-
 YamlNode convert(const YAML::Node& node) {
   YamlNode out;
   out.line = node.Mark().line;
@@ -199,10 +137,11 @@ constexpr Backend kBackend{
     sameBytes,
     wipe,
     aesAvailable,
-    aeadNew,
-    aeadFree,
-    aeadSeal,
-    aeadOpen,
+    module::aeadNew,
+    module::aeadName,
+    module::aeadFree,
+    module::aeadSeal,
+    module::aeadOpen,
     parseYaml,
 };
 
