@@ -313,7 +313,11 @@ bool Replication::onUpdate(PeisId source, wire::TupleUpdate&& update) {
     return false;
   }
   if (!checkIncarnation(source, update.ownerIncarnation)) return false;
-  return space_.accept(std::move(update.tuple));
+  const bool accepted = space_.accept(std::move(update.tuple));
+  // What the stored tuple gave up for the decoded data (or the data of an
+  // update not taken) is memory for the next decoded tuple.
+  wire::recycleDataBuffer(std::move(update.tuple.data));
+  return accepted;
 }
 
 bool Replication::onDeleted(PeisId source, const wire::TupleDeleted& deleted) {

@@ -251,11 +251,24 @@ std::uint32_t readTupleHead(Reader& r, Tuple& t) {
   return r.u32("data length");
 }
 
+// recycleDataBuffer's buffers, of this thread.
+std::vector<std::string>& spareDataBuffers() {
+  thread_local std::vector<std::string> spare;
+  return spare;
+}
+
 void readTupleInto(Reader& r, std::size_t maxDataBytes, Tuple& t) {
   const auto size = readTupleHead(r, t);
   if (r.ok() && size > maxDataBytes) {
     r.fail("data of " + std::to_string(size) + " bytes exceeds the limit of " +
            std::to_string(maxDataBytes));
+  }
+  if (t.data.capacity() < size && size <= kSpareDataBufferBytes) {
+    auto& spare = spareDataBuffers();
+    if (!spare.empty()) {
+      t.data.swap(spare.back());
+      spare.pop_back();
+    }
   }
   r.bytesInto(t.data, size, "data");
 }
@@ -714,6 +727,15 @@ bool decodeRouted(std::string_view frame, std::size_t maxDataBytes, RoutedMessag
   r.end();
   if (!r.ok()) error = r.error();
   return r.ok();
+}
+
+void recycleDataBuffer(std::string&& buffer) {
+  // Buffers within the small-string size hold no memory of their own.
+  if (buffer.capacity() <= std::string().capacity() || buffer.capacity() > kSpareDataBufferBytes) {
+    return;
+  }
+  auto& spare = spareDataBuffers();
+  if (spare.size() < kSpareDataBuffers) spare.push_back(std::move(buffer));
 }
 
 bool isRoutedFrame(std::string_view frame) {
