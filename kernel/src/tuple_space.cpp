@@ -202,9 +202,9 @@ void TupleSpace::recycle(std::vector<TuplePtr>& spent) {
   spent.clear();
 }
 
-TuplePtr TupleSpace::store(std::shared_ptr<Tuple>&& tuple) {
+TuplePtr TupleSpace::store(std::shared_ptr<Tuple>&& tuple, bool isLast) {
   TuplePtr ptr = std::move(tuple);
-  if (isLastEntry(ptr->owner, ptr->key)) {
+  if (isLast || isLastEntry(ptr->owner, ptr->key)) {
     recycle(std::exchange(lastEntry_->second, ptr));
   } else {
     auto [it, inserted] = tuples_.try_emplace(refOf(*ptr));
@@ -219,7 +219,8 @@ TuplePtr TupleSpace::store(std::shared_ptr<Tuple>&& tuple) {
 
 TuplePtr TupleSpace::set(std::string_view key, std::string data, const WriteOptions& options,
                          PeisId creator) {
-  if (!isLastEntry(self_, key)) validateKey(key);  // a key already held was checked before
+  const bool isLast = isLastEntry(self_, key);
+  if (!isLast) validateKey(key);  // a key already held was checked before
   checkData(data.size());
   checkMimetype(options.mimetype);
   const auto now = clock_();
@@ -245,7 +246,7 @@ TuplePtr TupleSpace::set(std::string_view key, std::string data, const WriteOpti
                     : options.ttl.count() > 0    ? saturatingAdd(now, options.ttl)
                                                  : kNoTime;
   tuple.seqno = ++seqno;
-  return store(std::move(ptr));
+  return store(std::move(ptr), isLast);
 }
 
 TuplePtr TupleSpace::setKernelTuple(std::string_view key, std::string data) {
@@ -353,9 +354,9 @@ bool TupleSpace::accept(Tuple&& tuple, std::uint64_t incarnation) {
   lastEntry_ = it;
   hasLastEntry_ = true;
   if (it->second->seqno >= tuple.seqno) return false;
-  TuplePtr ptr = newTuple(std::move(tuple));
-  recycle(std::exchange(it->second, ptr));  // one lookup: replaced in place
-  queueEvent(EventKind::Changed, ptr);
+  // One lookup: replaced in place.
+  recycle(std::exchange(it->second, TuplePtr(newTuple(std::move(tuple)))));
+  queueEvent(EventKind::Changed, it->second);
   return true;
 }
 

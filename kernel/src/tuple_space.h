@@ -241,7 +241,8 @@ class TupleSpace {
   std::shared_ptr<Tuple> newTuple(Tuple&& value);
   void recycle(TuplePtr&& tuple);
   std::vector<std::shared_ptr<Tuple>> spare_;
-  TuplePtr store(std::shared_ptr<Tuple>&& tuple);
+  // `isLast`: the caller found the tuple's key to be lastEntry_'s.
+  TuplePtr store(std::shared_ptr<Tuple>&& tuple, bool isLast = false);
   void remove(std::map<TupleRef, TuplePtr>::iterator it, std::uint64_t seqno);
   void queueEvent(EventKind kind, const TuplePtr& tuple);
   // The callbacks whose mask, owner and key match an event's; the matching
