@@ -11,6 +11,17 @@
 #include "peis/key.h"
 #include "saturating_time.h"
 
+// ThreadSanitizer does not model the fence that orders the reuse of a
+// stored tuple after its last holder let go (TupleSpace::recycle): under it,
+// tuples are not reused.
+#if defined(__SANITIZE_THREAD__)
+#define PEIS_NO_TUPLE_REUSE 1
+#elif defined(__has_feature)
+#if __has_feature(thread_sanitizer)
+#define PEIS_NO_TUPLE_REUSE 1
+#endif
+#endif
+
 namespace peis {
 
 struct TupleSpace::Entry {
@@ -182,8 +193,7 @@ std::shared_ptr<Tuple> TupleSpace::newTuple(Tuple&& value) {
 void TupleSpace::recycle(TuplePtr&& tuple) {
   // Nobody else holds it when the count is 1 (and nobody can take a copy
   // from us). The acquire fence orders our reuse after the other holders'
-  // last reads, which happened before their releases of it. ThreadSanitizer
-  // does not see fences, so under it nothing is reused.
+  // last reads, which happened before their releases of it.
 #ifndef PEIS_NO_TUPLE_REUSE
   if (tuple && tuple.use_count() == 1 && spare_.size() < kMaxSpareTuples) {
     std::atomic_thread_fence(std::memory_order_acquire);
