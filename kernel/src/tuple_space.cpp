@@ -87,8 +87,8 @@ void TupleSpace::Delivery::run(const std::function<void(std::exception_ptr)>& on
     }
     auto& indirect = *target.indirect;
     if (!indirect.active) continue;
-    if (target.retarget) {
-      indirect.deliverTarget = target.newTarget;
+    if (target.retargetTo) {
+      indirect.deliverTarget = *target.retargetTo;
       indirect.lastIncarnation = incarnation_;
       indirect.lastSeqno = 0;
       if (tuple_) {
@@ -601,7 +601,7 @@ CallbackId TupleSpace::addCallbackWithHeld(const Pattern& pattern, Callback fn) 
     delivery.kind_ = EventKind::Changed;
     delivery.tuple_ = tuple;
     if (!indirects_.empty()) delivery.incarnation_ = lifeOf(tuple->owner);
-    delivery.targets_.push_back(Delivery::Target{entry, nullptr, false, std::nullopt});
+    delivery.targets_.emplace_back(entry);
     queue_.push_back(std::move(delivery));
   }
   return id;
@@ -654,7 +654,7 @@ void TupleSpace::retarget(const std::shared_ptr<Indirect>& indirect) {
   delivery.kind_ = EventKind::Changed;
   delivery.tuple_ = target ? get(target->owner, target->key) : nullptr;
   delivery.incarnation_ = target ? lifeOf(target->owner) : 0;
-  delivery.targets_.push_back(Delivery::Target{nullptr, indirect, true, target});
+  delivery.targets_.emplace_back(indirect, std::make_shared<const std::optional<TupleRef>>(target));
   queue_.push_back(std::move(delivery));
 }
 
@@ -680,33 +680,34 @@ const std::vector<std::shared_ptr<TupleSpace::Entry>>& TupleSpace::candidates(Ev
 
 void TupleSpace::queueEvent(EventKind kind, const TuplePtr& tuple) {
   if (observer_) observer_(kind, tuple);
-  // Built in place at the end of the queue; taken back if nothing matched.
-  auto& delivery = queue_.emplace_back();
+  // Built in place at the end of the queue once something matches (an
+  // event nothing matches, such as a stream's update nobody here watches,
+  // touches no delivery).
+  Delivery* delivery = nullptr;
+  auto deliver = [&]() -> Delivery& {
+    if (!delivery) {
+      delivery = &queue_.emplace_back();
+      delivery->kind_ = kind;
+      delivery->tuple_ = tuple;
+      if (!indirects_.empty()) delivery->incarnation_ = lifeOf(tuple->owner);
+    }
+    return *delivery;
+  };
   for (const auto& entry : candidates(kind, *tuple)) {
     if (entry->pattern.matches(*tuple)) {  // its creator, mimetype or data filter
-      delivery.targets_.push_back(Delivery::Target{entry, nullptr, false, std::nullopt});
+      deliver().targets_.emplace_back(entry);
     }
   }
+  if (indirects_.empty()) return;
   // A PEIS taking, changing or losing a name can change where meta tuples
   // that name owners by name point, so every indirect callback re-resolves.
   std::vector<std::shared_ptr<Indirect>> metaWatchers;
-  if (!indirects_.empty()) {
-    const bool nameEvent = tuple->key == "kernel.name";
-    for (const auto& [id, indirect] : indirects_) {
-      if (sameRef(indirect->queueTarget, *tuple)) {
-        delivery.targets_.push_back(Delivery::Target{nullptr, indirect, false, std::nullopt});
-      }
-      if (nameEvent || (indirect->meta.owner == tuple->owner && indirect->meta.key == tuple->key)) {
-        metaWatchers.push_back(indirect);
-      }
+  const bool nameEvent = tuple->key == "kernel.name";
+  for (const auto& [id, indirect] : indirects_) {
+    if (sameRef(indirect->queueTarget, *tuple)) deliver().targets_.emplace_back(indirect);
+    if (nameEvent || (indirect->meta.owner == tuple->owner && indirect->meta.key == tuple->key)) {
+      metaWatchers.push_back(indirect);
     }
-  }
-  if (delivery.targets_.empty()) {
-    queue_.pop_back();
-  } else {
-    delivery.kind_ = kind;
-    delivery.tuple_ = tuple;
-    if (!indirects_.empty()) delivery.incarnation_ = lifeOf(tuple->owner);
   }
   for (const auto& indirect : metaWatchers) retarget(indirect);
 }

@@ -182,7 +182,9 @@ class TupleSpace {
   // One queued event with the callbacks it matched when it happened.
   class Delivery {
    public:
-    Delivery() = default;
+    // User-provided: a value-initialised Delivery (emplace_back()) is not
+    // zero-filled first (a `rep stos` of the whole object per event).
+    Delivery() noexcept {}
     // Moving the targets moves shared_ptrs and strings only: cannot throw.
     Delivery(Delivery&&) noexcept = default;
     Delivery& operator=(Delivery&&) noexcept = default;
@@ -201,10 +203,14 @@ class TupleSpace {
     friend class TupleSpace;
     // One callback to run; held by value (almost every event matches one).
     struct Target {
+      explicit Target(std::shared_ptr<Entry> callback) : entry(std::move(callback)) {}
+      Target(std::shared_ptr<Indirect> callback,
+             std::shared_ptr<const std::optional<TupleRef>> to = nullptr)
+          : indirect(std::move(callback)), retargetTo(std::move(to)) {}
       std::shared_ptr<Entry> entry;
       std::shared_ptr<Indirect> indirect;
-      bool retarget = false;
-      std::optional<TupleRef> newTarget;
+      // Set: the event re-points `indirect` there (nullopt: nowhere).
+      std::shared_ptr<const std::optional<TupleRef>> retargetTo;
     };
     EventKind kind_ = EventKind::Changed;
     TuplePtr tuple_;

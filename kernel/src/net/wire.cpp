@@ -91,6 +91,31 @@ class Writer {
   std::string& out_;
 };
 
+// Copies `n` bytes of a tuple's field. GCC turns a memcpy whose size it
+// knows to be small (a key or mimetype cut at 255) into `rep movsq`, whose
+// start-up costs more than the copy (about 4 % of a 16-byte stream's CPU):
+// up to 32 bytes go in two overlapping moves, more through a call to memcpy
+// with what the compiler knew of the size hidden.
+inline void copyField(char* to, const char* from, std::size_t n) {
+  if (n >= 16 && n <= 32) {
+    std::memcpy(to, from, 16);
+    std::memcpy(to + n - 16, from + n - 16, 16);
+  } else if (n >= 8 && n < 16) {
+    std::memcpy(to, from, 8);
+    std::memcpy(to + n - 8, from + n - 8, 8);
+  } else if (n >= 4 && n < 8) {
+    std::memcpy(to, from, 4);
+    std::memcpy(to + n - 4, from + n - 4, 4);
+  } else if (n > 0 && n < 4) {
+    to[0] = from[0];
+    to[n / 2] = from[n / 2];
+    to[n - 1] = from[n - 1];
+  } else if (n > 32) {
+    asm("" : "+r"(n));
+    std::memcpy(to, from, n);
+  }
+}
+
 // Writes into memory already sized for the fields (the hot TupleUpdate path).
 class RawWriter {
  public:
@@ -112,7 +137,7 @@ class RawWriter {
     raw(s);
   }
   void raw(std::string_view s) {
-    if (!s.empty()) std::memcpy(p_, s.data(), s.size());
+    copyField(p_, s.data(), s.size());
     p_ += s.size();
   }
   char* at() const { return p_; }
