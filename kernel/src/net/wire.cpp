@@ -681,9 +681,9 @@ std::size_t tupleUpdateFrameBytes(const Tuple& tuple) {
 }
 
 void encodeTupleUpdate(const Envelope& envelope, std::uint64_t ownerIncarnation, const Tuple& tuple,
-                       std::string& out, TupleData data) {
+                       std::string& out, TupleData data, std::size_t frameBytes) {
   // Sized once and written in place: this runs once per update sent.
-  const auto bytes = tupleUpdateFrameBytes(tuple);
+  const auto bytes = frameBytes != 0 ? frameBytes : tupleUpdateFrameBytes(tuple);
   const auto start = out.size();
   out.resize(start + bytes - (data == TupleData::Omit ? tuple.data.size() : 0));
   RawWriter w(out.data() + start);

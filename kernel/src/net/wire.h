@@ -195,8 +195,10 @@ std::string encodeFrame(const RoutedMessage& message);
 // counts them): the caller sends tuple.data right after, from where it is.
 enum class TupleData { Include, Omit };
 std::size_t tupleUpdateFrameBytes(const Tuple& tuple);
+// `frameBytes`: tupleUpdateFrameBytes(tuple) when the caller has it (0: computed).
 void encodeTupleUpdate(const Envelope& envelope, std::uint64_t ownerIncarnation, const Tuple& tuple,
-                       std::string& out, TupleData data = TupleData::Include);
+                       std::string& out, TupleData data = TupleData::Include,
+                       std::size_t frameBytes = 0);
 // Rewrites the envelope of an encoded routed frame in place.
 void reEnvelope(std::string& frame, const Envelope& envelope);
 
