@@ -13,6 +13,8 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -34,13 +36,30 @@ class Child {
       const auto n = readlink("/proc/self/exe", path, sizeof path - 1);
       return n > 0 ? std::string(path, static_cast<std::size_t>(n)) : std::string("/proc/self/exe");
     }();
+    // PEIS_BENCH_CHILD_PREFIX (words split at spaces, e.g. "valgrind
+    // --tool=callgrind") runs the children under that program, the parent
+    // not: to profile one side of a measurement alone.
+    static std::vector<std::string> prefix = [] {
+      std::vector<std::string> words;
+      const char* text = std::getenv("PEIS_BENCH_CHILD_PREFIX");
+      for (const char* p = text ? text : ""; *p != '\0';) {
+        const char* end = std::strchr(p, ' ');
+        if (end == nullptr) end = p + std::strlen(p);
+        if (end > p) words.emplace_back(p, end);
+        p = *end == '\0' ? end : end + 1;
+      }
+      return words;
+    }();
+    for (auto& word : prefix) argv.push_back(word.data());
     argv.push_back(self.data());
     for (auto& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
     posix_spawn_file_actions_t actions;
     posix_spawn_file_actions_init(&actions);
     posix_spawn_file_actions_adddup2(&actions, fds[1], 1);  // dup2 clears close-on-exec
-    const int error = posix_spawn(&pid_, self.c_str(), &actions, nullptr, argv.data(), environ);
+    const int error =
+        prefix.empty() ? posix_spawn(&pid_, self.c_str(), &actions, nullptr, argv.data(), environ)
+                       : posix_spawnp(&pid_, argv[0], &actions, nullptr, argv.data(), environ);
     posix_spawn_file_actions_destroy(&actions);
     close(fds[1]);
     if (error != 0) {

@@ -280,10 +280,15 @@ Throughput streamTo(std::size_t bytes, int sinks, const std::string& ecology,
       },
       20s);
   const std::string payload(bytes, 'x');
+  // PEIS_BENCH_STREAM_UPDATES=N writes N updates (a multiple of 64) instead
+  // of writing for `writeFor`: a fixed amount of work, for CPU time and
+  // instruction counts per update (docs/performance.md, "Method").
+  const char* fixed = std::getenv("PEIS_BENCH_STREAM_UPDATES");
+  const std::uint64_t updates = fixed ? std::strtoull(fixed, nullptr, 10) : 0;
   const auto start = nowMicros();
   const auto until = Clock::now() + writeFor;
   std::uint64_t written = 0, last = 0;
-  while (Clock::now() < until) {
+  while (updates > 0 ? written < updates : Clock::now() < until) {
     for (int i = 0; i < 64; ++i) last = kernel.publish("stream", payload);
     written += 64;
   }
@@ -315,6 +320,9 @@ Throughput streamTo(std::size_t bytes, int sinks, const std::string& ecology,
     result.megabytesPerSecond = result.updatesPerSecond * static_cast<double>(bytes) / 1e6;
   }
   result.coalesced = kernel.networkStats().coalesced;
+  // Asked to quit (SIGTERM) rather than killed: a sink profiled under
+  // valgrind writes its profile as it exits.
+  for (auto& child : children) child->stop();
   return result;
 }
 

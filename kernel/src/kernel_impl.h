@@ -115,7 +115,9 @@ struct Kernel::Impl {
                                c.directFramesOut.load(std::memory_order_relaxed);
                       }};
   Timestamp scheduledExpiry = kNoTime;
-  std::deque<TupleSpace::Delivery> batch;       // deliveries taken, being run
+  std::vector<TupleSpace::Delivery> batch;  // deliveries taken, being run from batchNext
+  std::size_t batchNext = 0;
+  std::vector<TuplePtr> spentTuples;            // of deliveries that ran: back to the space
   std::vector<Replication::Outgoing> outgoing;  // flush's, memory reused
   std::vector<std::string> sentFrames;          // frames handed to links
 

@@ -162,9 +162,25 @@ void Kernel::Impl::armRetry() {  // kernel thread
 }
 
 void Kernel::Impl::drain() {  // kernel thread: deliveries taken from the space, run in turns
+  // Each throwing callback is counted; the others for the event still run.
+  const TupleSpace::Delivery* running = nullptr;
+  const std::function<void(std::exception_ptr)> onError = [this,
+                                                           &running](std::exception_ptr error) {
+    const auto what = running->tuple() ? running->tuple()->fullName() : std::string("?");
+    try {
+      std::rethrow_exception(error);
+    } catch (const std::exception& e) {
+      reportThrown("a callback for " + what + " threw: " + e.what());
+    } catch (...) {
+      reportThrown("a callback for " + what + " threw");
+    }
+  };
   for (std::size_t ran = 0;; ++ran) {
-    if (batch.empty()) {
+    if (batchNext == batch.size()) {
+      batch.clear();  // its memory goes to the space's queue with the swap
+      batchNext = 0;
       MutexLock lock(mu);
+      space.recycle(spentTuples);      // their storage is reused for the next tuples
       space.takeAllDeliveries(batch);  // a swap: one lock for all queued
       if (batch.empty()) {
         if (space.allKeysDirty()) {
@@ -180,19 +196,12 @@ void Kernel::Impl::drain() {  // kernel thread: deliveries taken from the space,
       asio::post(io, [this] { drain(); });  // more: yield to timers and sockets first
       return;
     }
-    const auto& delivery = batch.front();
-    // Each throwing callback is counted; the others for the event still run.
-    delivery.run([&](std::exception_ptr error) {
-      const auto what = delivery.tuple() ? delivery.tuple()->fullName() : std::string("?");
-      try {
-        std::rethrow_exception(error);
-      } catch (const std::exception& e) {
-        reportThrown("a callback for " + what + " threw: " + e.what());
-      } catch (...) {
-        reportThrown("a callback for " + what + " threw");
-      }
-    });
-    batch.pop_front();
+    auto& delivery = batch[batchNext];
+    running = &delivery;
+    delivery.run(onError);
+    if (delivery.tuple()) spentTuples.push_back(delivery.takeTuple());
+    delivery = TupleSpace::Delivery();  // the callbacks' references go now
+    ++batchNext;
   }
 }
 

@@ -80,8 +80,12 @@ void Outbox::pushUpdate(PeisId destination, const TuplePtr& tuple) {
 }
 
 void Outbox::appendFrame(PeisId destination, Queue& queue, const Tuple& tuple) {
+  // An entry is cut before a frame would take it over kFramesPerEntryBytes:
+  // its memory then never grows past that (a string of twice that size is
+  // an mmap of its own, and a stream's entries paid fresh pages for it).
+  const auto bytes = wire::tupleUpdateFrameBytes(tuple);
   const bool extend = !queue.entries.empty() && queue.entries.back().frameCount > 0 &&
-                      queue.entries.back().frames.size() < kFramesPerEntryBytes;
+                      queue.entries.back().frames.size() + bytes <= kFramesPerEntryBytes;
   if (!extend) {
     queue.pending.clear();  // no waiting update may be replaced across these frames
     auto& entry = queue.entries.emplace_back();
@@ -96,7 +100,7 @@ void Outbox::appendFrame(PeisId destination, Queue& queue, const Tuple& tuple) {
   auto& entry = queue.entries.back();
   const auto before = entry.frames.size();
   wire::encodeTupleUpdate(wire::Envelope{self_, destination, wire::kDefaultTtl}, incarnation_,
-                          tuple, entry.frames);
+                          tuple, entry.frames, wire::TupleData::Include, bytes);
   ++entry.frameCount;
   queue.bytes += entry.frames.size() - before;
   bytes_ += entry.frames.size() - before;

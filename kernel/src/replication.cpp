@@ -32,20 +32,34 @@ Replication::Replication(TupleSpace& space, std::uint64_t incarnation,
       lease_(lease),
       outbox_(space.self(), incarnation) {}
 
+const std::vector<Replication::Recipient>& Replication::recipientsOf(const Tuple& tuple) {
+  auto& cache = recipients_;
+  if (cache.valid && cache.owner == tuple.owner && cache.key == tuple.key) return cache.recipients;
+  cache.recipients.clear();
+  for (const auto& [subscriber, subscriptions] : remote_) {
+    for (const auto& [id, subscription] : subscriptions) {
+      if (!subscription.pattern.matchesOwnerAndKey(tuple.owner, tuple.key)) continue;
+      if (subscription.access && !subscription.access->allows(tuple.key)) break;
+      cache.recipients.push_back(Recipient{subscriber, subscription.maxDataBytes});
+      break;  // one copy per subscriber, however many of its patterns match
+    }
+  }
+  cache.valid = true;
+  cache.owner = tuple.owner;
+  cache.key = tuple.key;
+  return cache.recipients;
+}
+
 void Replication::onLocalEvent(EventKind kind, const TuplePtr& tuple) {
   if (tuple->owner != space_.self()) return;
   guard_.onOwnEvent(space_.self(), kind, *tuple);
-  for (const auto& [subscriber, subscriptions] : remote_) {
-    for (const auto& [id, subscription] : subscriptions) {
-      if (!subscription.pattern.matchesOwnerAndKey(tuple->owner, tuple->key)) continue;
-      if (subscription.access && !subscription.access->allows(tuple->key)) break;
-      if (kind == EventKind::Changed) {
-        pushUpdate(subscriber, tuple, subscription.maxDataBytes);
-      } else {
-        push(Outgoing{subscriber, nullptr,
-                      wire::TupleDeleted{incarnation_, tuple->owner, tuple->key, tuple->seqno}});
-      }
-      break;  // one copy per subscriber, however many of its patterns match
+  if (remote_.empty()) return;
+  for (const auto& [subscriber, maxDataBytes] : recipientsOf(*tuple)) {
+    if (kind == EventKind::Changed) {
+      pushUpdate(subscriber, tuple, maxDataBytes);
+    } else {
+      push(Outgoing{subscriber, nullptr,
+                    wire::TupleDeleted{incarnation_, tuple->owner, tuple->key, tuple->seqno}});
     }
   }
 }
@@ -59,6 +73,7 @@ void Replication::onSubscribe(PeisId subscriber, const wire::Subscribe& subscrib
   } catch (const Error&) {
     return;  // the decoder already checked it; never trust twice-removed input
   }
+  remoteChanged();
   auto& subscriptions = remote_[subscriber];
   const bool isNew = !subscriptions.count(subscribe.subscription);
   const auto lease = std::chrono::milliseconds(std::max<std::uint32_t>(subscribe.leaseMs, 300));
@@ -114,6 +129,7 @@ void Replication::pushManifest(PeisId destination, std::uint64_t subscription,
 void Replication::onUnsubscribe(PeisId subscriber, std::uint64_t subscription) {
   auto it = remote_.find(subscriber);
   if (it == remote_.end()) return;
+  remoteChanged();
   it->second.erase(subscription);
   if (it->second.empty()) remote_.erase(it);
 }
@@ -204,10 +220,12 @@ bool Replication::expireLeases(SteadyTime now) {
     }
     it = subscriptions.empty() ? remote_.erase(it) : std::next(it);
   }
+  if (dropped) remoteChanged();
   return dropped;
 }
 
 void Replication::reauthorize() {
+  remoteChanged();
   for (auto& [subscriber, subscriptions] : remote_) {
     auto access = guard_.readAccess(subscriber);
     for (auto& [id, subscription] : subscriptions) subscription.access = access;
@@ -313,7 +331,11 @@ bool Replication::onUpdate(PeisId source, wire::TupleUpdate&& update) {
     return false;
   }
   if (!checkIncarnation(source, update.ownerIncarnation)) return false;
-  return space_.accept(std::move(update.tuple));
+  const bool accepted = space_.accept(std::move(update.tuple));
+  // What the stored tuple gave up for the decoded data (or the data of an
+  // update not taken) is memory for the next decoded tuple.
+  wire::recycleDataBuffer(std::move(update.tuple.data));
+  return accepted;
 }
 
 bool Replication::onDeleted(PeisId source, const wire::TupleDeleted& deleted) {
@@ -392,6 +414,7 @@ void Replication::onPeerUp(PeisId peer, std::uint64_t incarnation) {
   // those of its old life must not pass for renewals (no full sync).
   const auto known = space_.incarnationOf(peer);
   if (known != 0 && known != incarnation) {  // of its previous life
+    remoteChanged();
     remote_.erase(peer);
     writesFrom_.erase(peer);
   }
@@ -419,6 +442,7 @@ void Replication::onRouteChanged(PeisId owner) {
 
 void Replication::onPeerDown(PeisId peer) {
   reachable_.erase(peer);
+  remoteChanged();
   remote_.erase(peer);
   // writesFrom_ stays: a writer cut off for a moment may send its write
   // again once it is back, and must not have it applied twice.

@@ -159,6 +159,23 @@ class Replication {
   std::uint64_t incarnation_;
   std::chrono::milliseconds lease_;
   std::map<PeisId, std::map<std::uint64_t, RemoteSubscription>> remote_;
+  // The subscribers an event of an own tuple goes to (one copy each) and
+  // their data limits. The answer for the last event's key is kept (a
+  // stream repeats one key) until remote_ changes: every change of it
+  // calls remoteChanged().
+  struct Recipient {
+    PeisId subscriber;
+    std::uint32_t maxDataBytes;
+  };
+  struct RecipientCache {
+    bool valid = false;
+    PeisId owner = 0;
+    std::string key;
+    std::vector<Recipient> recipients;
+  };
+  RecipientCache recipients_;
+  const std::vector<Recipient>& recipientsOf(const Tuple& tuple);
+  void remoteChanged() { recipients_.valid = false; }
   // Per writer, its latest request ids and their results (none: deciding).
   std::map<PeisId, std::deque<std::pair<std::uint64_t, std::optional<wire::WriteResult>>>>
       writesFrom_;

@@ -5,10 +5,22 @@
 #include <atomic>
 #include <iterator>
 #include <type_traits>
+#include <utility>
 
 #include "peis/error.h"
 #include "peis/key.h"
 #include "saturating_time.h"
+
+// ThreadSanitizer does not model the fence that orders the reuse of a
+// stored tuple after its last holder let go (TupleSpace::recycle): under it,
+// tuples are not reused.
+#if defined(__SANITIZE_THREAD__)
+#define PEIS_NO_TUPLE_REUSE 1
+#elif defined(__has_feature)
+#if __has_feature(thread_sanitizer)
+#define PEIS_NO_TUPLE_REUSE 1
+#endif
+#endif
 
 namespace peis {
 
@@ -75,8 +87,8 @@ void TupleSpace::Delivery::run(const std::function<void(std::exception_ptr)>& on
     }
     auto& indirect = *target.indirect;
     if (!indirect.active) continue;
-    if (target.retarget) {
-      indirect.deliverTarget = target.newTarget;
+    if (target.retargetTo) {
+      indirect.deliverTarget = *target.retargetTo;
       indirect.lastIncarnation = incarnation_;
       indirect.lastSeqno = 0;
       if (tuple_) {
@@ -139,10 +151,11 @@ void TupleSpace::changeSelf(PeisId newId) {
   for (auto& [id, entry] : callbacks_) {
     if (entry->pattern.ownerFilter() == oldId) entry->pattern.owner(newId);
   }
+  matchCache_.valid = false;
   for (auto& [id, indirect] : indirects_) {
     if (indirect->meta.owner == oldId) indirect->meta.owner = newId;
   }
-  for (auto& tuple : own) store(std::move(tuple));
+  for (auto& tuple : own) store(newTuple(std::move(tuple)));
   refreshIndirects();
   allKeysDirty_ = true;
 }
@@ -164,13 +177,49 @@ bool TupleSpace::isLastEntry(PeisId owner, std::string_view key) const {
   return hasLastEntry_ && lastEntry_->first.owner == owner && lastEntry_->first.key == key;
 }
 
-TuplePtr TupleSpace::store(Tuple&& tuple) {
-  auto ptr = std::make_shared<const Tuple>(std::move(tuple));
-  if (isLastEntry(ptr->owner, ptr->key)) {
-    lastEntry_->second = ptr;
+std::shared_ptr<Tuple> TupleSpace::newTuple() {
+  if (spare_.empty()) return std::make_shared<Tuple>();
+  auto tuple = std::move(spare_.back());
+  spare_.pop_back();
+  return tuple;
+}
+
+std::shared_ptr<Tuple> TupleSpace::newTuple(Tuple&& value) {
+  auto tuple = newTuple();
+  *tuple = std::move(value);  // every field; strings take over value's memory
+  return tuple;
+}
+
+void TupleSpace::recycle(TuplePtr&& tuple) {
+  // Nobody else holds it when the count is 1 (and nobody can take a copy
+  // from us). The acquire fence orders our reuse after the other holders'
+  // last reads, which happened before their releases of it.
+#ifndef PEIS_NO_TUPLE_REUSE
+  if (tuple && tuple.use_count() == 1 && spare_.size() < kMaxSpareTuples) {
+    std::atomic_thread_fence(std::memory_order_acquire);
+    // Allocated mutable by newTuple (only the space allocates stored tuples).
+    auto spare = std::const_pointer_cast<Tuple>(std::move(tuple));
+    if (spare->data.capacity() > kSpareDataBytes) spare->data = std::string();
+    spare_.push_back(std::move(spare));
+    return;
+  }
+#endif
+  tuple.reset();
+}
+
+void TupleSpace::recycle(std::vector<TuplePtr>& spent) {
+  for (auto& tuple : spent) recycle(std::move(tuple));
+  spent.clear();
+}
+
+TuplePtr TupleSpace::store(std::shared_ptr<Tuple>&& tuple, bool isLast) {
+  TuplePtr ptr = std::move(tuple);
+  if (isLast || isLastEntry(ptr->owner, ptr->key)) {
+    recycle(std::exchange(lastEntry_->second, ptr));
   } else {
-    auto [it, inserted] = tuples_.insert_or_assign(refOf(*ptr), ptr);
+    auto [it, inserted] = tuples_.try_emplace(refOf(*ptr));
     if (inserted && ptr->owner == self_) allKeysDirty_ = true;
+    recycle(std::exchange(it->second, ptr));
     lastEntry_ = it;
     hasLastEntry_ = true;
   }
@@ -180,7 +229,8 @@ TuplePtr TupleSpace::store(Tuple&& tuple) {
 
 TuplePtr TupleSpace::set(std::string_view key, std::string data, const WriteOptions& options,
                          PeisId creator) {
-  if (!isLastEntry(self_, key)) validateKey(key);  // a key already held was checked before
+  const bool isLast = isLastEntry(self_, key);
+  if (!isLast) validateKey(key);  // a key already held was checked before
   checkData(data.size());
   checkMimetype(options.mimetype);
   const auto now = clock_();
@@ -191,10 +241,12 @@ TuplePtr TupleSpace::set(std::string_view key, std::string data, const WriteOpti
     hasLastSeqno_ = true;
   }
   auto& seqno = lastSeqno_->second;
-  Tuple tuple;
+  // Every field is written: the storage may be a spare one.
+  auto ptr = newTuple();
+  Tuple& tuple = *ptr;
   tuple.owner = self_;
   tuple.creator = creator == 0 ? self_ : creator;
-  tuple.key = std::string(key);
+  tuple.key.assign(key);
   tuple.data = std::move(data);
   tuple.mimetype = options.mimetype;
   tuple.encoding = options.encoding;
@@ -204,7 +256,7 @@ TuplePtr TupleSpace::set(std::string_view key, std::string data, const WriteOpti
                     : options.ttl.count() > 0    ? saturatingAdd(now, options.ttl)
                                                  : kNoTime;
   tuple.seqno = ++seqno;
-  return store(std::move(tuple));
+  return store(std::move(ptr), isLast);
 }
 
 TuplePtr TupleSpace::setKernelTuple(std::string_view key, std::string data) {
@@ -269,7 +321,7 @@ void TupleSpace::remove(std::map<TupleRef, TuplePtr>::iterator it, std::uint64_t
     allKeysDirty_ = true;
   }
   tuples_.erase(it);
-  queueEvent(EventKind::Deleted, std::make_shared<const Tuple>(std::move(last)));
+  queueEvent(EventKind::Deleted, newTuple(std::move(last)));
 }
 
 std::uint64_t TupleSpace::incarnationOf(PeisId owner) const {
@@ -306,15 +358,15 @@ bool TupleSpace::accept(Tuple&& tuple, std::uint64_t incarnation) {
   auto it = isLastEntry(tuple.owner, tuple.key) ? lastEntry_ : tuples_.find(refOf(tuple));
   if (it == tuples_.end()) {
     if (keyProblem(tuple.key)) return false;  // a key already held was checked before
-    store(std::move(tuple));
+    store(newTuple(std::move(tuple)));
     return true;
   }
   lastEntry_ = it;
   hasLastEntry_ = true;
   if (it->second->seqno >= tuple.seqno) return false;
-  auto ptr = std::make_shared<const Tuple>(std::move(tuple));
-  it->second = ptr;  // one lookup: replaced in place
-  queueEvent(EventKind::Changed, ptr);
+  // One lookup: replaced in place.
+  recycle(std::exchange(it->second, TuplePtr(newTuple(std::move(tuple)))));
+  queueEvent(EventKind::Changed, it->second);
   return true;
 }
 
@@ -537,6 +589,7 @@ CallbackId TupleSpace::addCallback(const Pattern& pattern, unsigned mask, Callba
   entry->mask = mask;
   entry->fn = std::move(fn);
   callbacks_.emplace(id, std::move(entry));
+  matchCache_.valid = false;
   return id;
 }
 
@@ -548,7 +601,7 @@ CallbackId TupleSpace::addCallbackWithHeld(const Pattern& pattern, Callback fn) 
     delivery.kind_ = EventKind::Changed;
     delivery.tuple_ = tuple;
     if (!indirects_.empty()) delivery.incarnation_ = lifeOf(tuple->owner);
-    delivery.targets_.push_back(Delivery::Target{entry, nullptr, false, std::nullopt});
+    delivery.targets_.emplace_back(entry);
     queue_.push_back(std::move(delivery));
   }
   return id;
@@ -571,6 +624,7 @@ bool TupleSpace::removeCallback(CallbackId id) {
   if (auto it = callbacks_.find(id); it != callbacks_.end()) {
     it->second->active = false;
     callbacks_.erase(it);
+    matchCache_ = MatchCache();
     return true;
   }
   if (auto it = indirects_.find(id); it != indirects_.end()) {
@@ -600,34 +654,61 @@ void TupleSpace::retarget(const std::shared_ptr<Indirect>& indirect) {
   delivery.kind_ = EventKind::Changed;
   delivery.tuple_ = target ? get(target->owner, target->key) : nullptr;
   delivery.incarnation_ = target ? lifeOf(target->owner) : 0;
-  delivery.targets_.push_back(Delivery::Target{nullptr, indirect, true, target});
+  delivery.targets_.emplace_back(indirect, std::make_shared<const std::optional<TupleRef>>(target));
   queue_.push_back(std::move(delivery));
+}
+
+const std::vector<std::shared_ptr<TupleSpace::Entry>>& TupleSpace::candidates(EventKind kind,
+                                                                              const Tuple& tuple) {
+  auto& cache = matchCache_;
+  if (cache.valid && cache.owner == tuple.owner && cache.kind == kind && cache.key == tuple.key) {
+    return cache.entries;
+  }
+  cache.entries.clear();
+  for (const auto& [id, entry] : callbacks_) {
+    if ((entry->mask & static_cast<unsigned>(kind)) &&
+        entry->pattern.matchesOwnerAndKey(tuple.owner, tuple.key)) {
+      cache.entries.push_back(entry);
+    }
+  }
+  cache.valid = true;
+  cache.owner = tuple.owner;
+  cache.kind = kind;
+  cache.key = tuple.key;
+  return cache.entries;
 }
 
 void TupleSpace::queueEvent(EventKind kind, const TuplePtr& tuple) {
   if (observer_) observer_(kind, tuple);
-  Delivery delivery;
-  delivery.kind_ = kind;
-  delivery.tuple_ = tuple;
-  if (!indirects_.empty()) delivery.incarnation_ = lifeOf(tuple->owner);
-  for (const auto& [id, entry] : callbacks_) {
-    if ((entry->mask & static_cast<unsigned>(kind)) && entry->pattern.matches(*tuple)) {
-      delivery.targets_.push_back(Delivery::Target{entry, nullptr, false, std::nullopt});
+  // Built in place at the end of the queue once something matches (an
+  // event nothing matches, such as a stream's update nobody here watches,
+  // touches no delivery).
+  Delivery* delivery = nullptr;
+  auto deliver = [&]() -> Delivery& {
+    if (!delivery) {
+      delivery = &queue_.emplace_back();
+      delivery->kind_ = kind;
+      delivery->tuple_ = tuple;
+      if (!indirects_.empty()) delivery->incarnation_ = lifeOf(tuple->owner);
+    }
+    return *delivery;
+  };
+  for (const auto& entry : candidates(kind, *tuple)) {
+    if (entry->pattern.matches(*tuple)) {  // its creator, mimetype or data filter
+      deliver().targets_.emplace_back(entry);
     }
   }
+  if (indirects_.empty()) return;
   // A PEIS taking, changing or losing a name can change where meta tuples
   // that name owners by name point, so every indirect callback re-resolves.
-  const bool nameEvent = tuple->key == "kernel.name";
   std::vector<std::shared_ptr<Indirect>> metaWatchers;
+  const bool nameEvent = tuple->key == "kernel.name";
   for (const auto& [id, indirect] : indirects_) {
-    if (sameRef(indirect->queueTarget, *tuple)) {
-      delivery.targets_.push_back(Delivery::Target{nullptr, indirect, false, std::nullopt});
-    }
+    if (sameRef(indirect->queueTarget, *tuple)) deliver().targets_.emplace_back(indirect);
     if (nameEvent || (indirect->meta.owner == tuple->owner && indirect->meta.key == tuple->key)) {
       metaWatchers.push_back(indirect);
     }
   }
-  if (!delivery.targets_.empty()) queue_.push_back(std::move(delivery));
   for (const auto& indirect : metaWatchers) retarget(indirect);
 }
 
@@ -635,28 +716,23 @@ static_assert(std::is_nothrow_move_constructible_v<TupleSpace::Delivery>,
               "the delivery queue moves deliveries when it grows");
 
 std::optional<TupleSpace::Delivery> TupleSpace::nextDelivery() {
-  if (queue_.empty()) return std::nullopt;
-  std::optional<Delivery> delivery(std::move(queue_.front()));
-  queue_.pop_front();
+  if (queueHead_ == queue_.size()) return std::nullopt;
+  std::optional<Delivery> delivery(std::move(queue_[queueHead_++]));
+  if (queueHead_ == queue_.size()) {
+    queue_.clear();
+    queueHead_ = 0;
+  }
   return delivery;
 }
 
-std::size_t TupleSpace::takeDeliveries(std::vector<Delivery>& out, std::size_t most) {
-  const auto count = std::min(most, queue_.size());
-  for (std::size_t i = 0; i < count; ++i) {
-    out.push_back(std::move(queue_.front()));
-    queue_.pop_front();
-  }
-  return count;
-}
-
-void TupleSpace::takeAllDeliveries(std::deque<Delivery>& out) {
-  if (out.empty()) {
+void TupleSpace::takeAllDeliveries(std::vector<Delivery>& out) {
+  if (out.empty() && queueHead_ == 0) {
     out.swap(queue_);
     return;
   }
-  for (auto& delivery : queue_) out.push_back(std::move(delivery));
+  for (auto i = queueHead_; i < queue_.size(); ++i) out.push_back(std::move(queue_[i]));
   queue_.clear();
+  queueHead_ = 0;
 }
 
 std::size_t TupleSpace::dispatch() {

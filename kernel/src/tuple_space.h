@@ -15,7 +15,6 @@
 
 #include <boost/container/small_vector.hpp>
 #include <cstdint>
-#include <deque>
 #include <exception>
 #include <functional>
 #include <map>
@@ -183,7 +182,9 @@ class TupleSpace {
   // One queued event with the callbacks it matched when it happened.
   class Delivery {
    public:
-    Delivery() = default;
+    // User-provided: a value-initialised Delivery (emplace_back()) is not
+    // zero-filled first (a `rep stos` of the whole object per event).
+    Delivery() noexcept {}
     // Moving the targets moves shared_ptrs and strings only: cannot throw.
     Delivery(Delivery&&) noexcept = default;
     Delivery& operator=(Delivery&&) noexcept = default;
@@ -195,15 +196,21 @@ class TupleSpace {
     void run(const std::function<void(std::exception_ptr)>& onError = {}) const;
     EventKind kind() const { return kind_; }
     const TuplePtr& tuple() const { return tuple_; }
+    // Once it ran: its tuple, for TupleSpace::recycle.
+    TuplePtr takeTuple() { return std::move(tuple_); }
 
    private:
     friend class TupleSpace;
     // One callback to run; held by value (almost every event matches one).
     struct Target {
+      explicit Target(std::shared_ptr<Entry> callback) : entry(std::move(callback)) {}
+      Target(std::shared_ptr<Indirect> callback,
+             std::shared_ptr<const std::optional<TupleRef>> to = nullptr)
+          : indirect(std::move(callback)), retargetTo(std::move(to)) {}
       std::shared_ptr<Entry> entry;
       std::shared_ptr<Indirect> indirect;
-      bool retarget = false;
-      std::optional<TupleRef> newTarget;
+      // Set: the event re-points `indirect` there (nullopt: nowhere).
+      std::shared_ptr<const std::optional<TupleRef>> retargetTo;
     };
     EventKind kind_ = EventKind::Changed;
     TuplePtr tuple_;
@@ -211,11 +218,15 @@ class TupleSpace {
     boost::container::small_vector<Target, 1> targets_;
   };
   std::optional<Delivery> nextDelivery();
-  // Moves up to `most` queued deliveries, oldest first, to the end of `out`.
-  std::size_t takeDeliveries(std::vector<Delivery>& out, std::size_t most);
-  // Moves every queued delivery to `out` (empty: a swap, nothing is copied).
-  void takeAllDeliveries(std::deque<Delivery>& out);
-  bool hasPendingDeliveries() const { return !queue_.empty(); }
+  // Moves every queued delivery, oldest first, to the end of `out` (empty:
+  // a swap, nothing is moved; its memory becomes the queue's).
+  void takeAllDeliveries(std::vector<Delivery>& out);
+  bool hasPendingDeliveries() const { return queueHead_ < queue_.size(); }
+  // The tuples of deliveries that ran, handed back by whoever ran them:
+  // the storage of those nobody else holds any more is reused for the next
+  // tuples stored (a stream then allocates no tuple per update). Clears
+  // `spent`.
+  void recycle(std::vector<TuplePtr>& spent);
   // Runs queued deliveries until none is left; a nested call returns 0.
   std::size_t dispatch();
 
@@ -226,9 +237,32 @@ class TupleSpace {
   void flushAllKeys();
 
  private:
-  TuplePtr store(Tuple&& tuple);
+  // Tuples are allocated mutable and stored as const: the storage of a
+  // stored tuple nobody else holds any more (a replaced value, a delivery
+  // that ran) is kept in spare_ and reused by newTuple (at most
+  // kMaxSpareTuples, without their data buffers beyond kSpareDataBytes).
+  static constexpr std::size_t kMaxSpareTuples = 256;
+  static constexpr std::size_t kSpareDataBytes = 256;
+  std::shared_ptr<Tuple> newTuple();
+  std::shared_ptr<Tuple> newTuple(Tuple&& value);
+  void recycle(TuplePtr&& tuple);
+  std::vector<std::shared_ptr<Tuple>> spare_;
+  // `isLast`: the caller found the tuple's key to be lastEntry_'s.
+  TuplePtr store(std::shared_ptr<Tuple>&& tuple, bool isLast = false);
   void remove(std::map<TupleRef, TuplePtr>::iterator it, std::uint64_t seqno);
   void queueEvent(EventKind kind, const TuplePtr& tuple);
+  // The callbacks whose mask, owner and key match an event's; the matching
+  // of the last event's owner, key and kind is kept (a stream repeats one
+  // key) until the callbacks change.
+  const std::vector<std::shared_ptr<Entry>>& candidates(EventKind kind, const Tuple& tuple);
+  struct MatchCache {
+    bool valid = false;
+    PeisId owner = 0;
+    EventKind kind = EventKind::Changed;
+    std::string key;
+    std::vector<std::shared_ptr<Entry>> entries;
+  };
+  MatchCache matchCache_;
   void retarget(const std::shared_ptr<Indirect>& indirect);
   std::uint64_t lifeOf(PeisId owner) const { return owner == self_ ? 0 : incarnationOf(owner); }
   void checkData(std::size_t bytes) const;
@@ -253,7 +287,10 @@ class TupleSpace {
   std::map<TupleRef, Withheld> withheld_;
   std::map<CallbackId, std::shared_ptr<Entry>> callbacks_;
   std::map<CallbackId, std::shared_ptr<Indirect>> indirects_;
-  std::deque<Delivery> queue_;
+  // Queued deliveries from queueHead_ on (a vector whose memory goes back
+  // and forth with the kernel's batch: no allocation per delivery).
+  std::vector<Delivery> queue_;
+  std::size_t queueHead_ = 0;
   CallbackId nextCallbackId_ = 1;
   bool dispatching_ = false;
   bool allKeysDirty_ = true;

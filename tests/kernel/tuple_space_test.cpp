@@ -28,6 +28,7 @@ using peis::EventKind;
 using peis::Pattern;
 using peis::Timestamp;
 using peis::Tuple;
+using peis::TuplePtr;
 using peis::TupleSpace;
 using peis::test::ManualClock;
 
@@ -1104,4 +1105,45 @@ TEST_CASE("a ttl too long for a timestamp saturates instead of wrapping into the
   CHECK(space.get(kSelf, "k"));
   CHECK(space.expire() == 0);
   CHECK(space.nextExpiry() == Timestamp::max());
+}
+
+TEST_CASE("a replaced tuple's storage is reused only when nobody holds it", "[unit][tuplespace]") {
+  // docs/architecture.md, "Memory of a stream": the space writes new values
+  // into tuples it stored before; one a caller, a queued delivery or a
+  // callback still holds must never change under it.
+  ManualClock clock;
+  TupleSpace space(kSelf, [&] { return clock.now; });
+  std::vector<std::string> seen;
+  space.addCallback(Pattern("k"), peis::kOnChange,
+                    [&](EventKind, const Tuple& t) { seen.push_back(t.data + "@" + t.key); });
+  auto first = space.set("k", std::string(20, 'a'));
+  std::vector<TuplePtr> held;
+  for (int i = 0; i < 50; ++i) {
+    auto t = space.set(i % 2 ? "k" : "other", std::string(static_cast<std::size_t>(i % 30), 'x'));
+    if (i % 7 == 0) held.push_back(t);
+    if (i % 5 == 0) {
+      std::vector<TuplePtr> spent;
+      while (auto delivery = space.nextDelivery()) {
+        delivery->run();
+        spent.push_back(delivery->takeTuple());
+      }
+      space.recycle(spent);
+    }
+  }
+  space.dispatch();
+  CHECK(first->data == std::string(20, 'a'));
+  CHECK(first->seqno == 1);
+  for (const auto& t : held) {
+    const auto i = static_cast<int>(&t - held.data()) * 7;
+    CHECK(t->key == (i % 2 ? "k" : "other"));
+    CHECK(t->data == std::string(static_cast<std::size_t>(i % 30), 'x'));
+  }
+  // Every change of "k" delivered with its own value, in order.
+  REQUIRE(seen.size() == 26);
+  CHECK(seen.front() == std::string(20, 'a') + "@k");
+  for (int n = 1; n < 26; ++n) {
+    CHECK(seen[static_cast<std::size_t>(n)] ==
+          std::string(static_cast<std::size_t>((2 * n - 1) % 30), 'x') + "@k");
+  }
+  CHECK(space.get(kSelf, "k")->data == std::string(19, 'x'));
 }

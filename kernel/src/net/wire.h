@@ -195,8 +195,10 @@ std::string encodeFrame(const RoutedMessage& message);
 // counts them): the caller sends tuple.data right after, from where it is.
 enum class TupleData { Include, Omit };
 std::size_t tupleUpdateFrameBytes(const Tuple& tuple);
+// `frameBytes`: tupleUpdateFrameBytes(tuple) when the caller has it (0: computed).
 void encodeTupleUpdate(const Envelope& envelope, std::uint64_t ownerIncarnation, const Tuple& tuple,
-                       std::string& out, TupleData data = TupleData::Include);
+                       std::string& out, TupleData data = TupleData::Include,
+                       std::size_t frameBytes = 0);
 // Rewrites the envelope of an encoded routed frame in place.
 void reEnvelope(std::string& frame, const Envelope& envelope);
 
@@ -214,6 +216,14 @@ bool decodeRouted(std::string_view frame, std::size_t maxDataBytes, RoutedMessag
                   std::string& error);
 // Whether the frame's type byte names a routed message.
 bool isRoutedFrame(std::string_view frame);
+// The memory of a decoded tuple's data that its taker is done with (the
+// buffer a stored tuple gave up when the decoded data moved into it): the
+// next tuple decoded on this thread reuses it rather than allocating, so a
+// stream of small tuples allocates no data (at most kSpareDataBuffers
+// buffers of at most kSpareDataBufferBytes are kept per thread).
+void recycleDataBuffer(std::string&& buffer);
+inline constexpr std::size_t kSpareDataBuffers = 512;
+inline constexpr std::size_t kSpareDataBufferBytes = 256;
 
 // Reads the u32 length prefix at the start of `bytes` (needs 4 bytes).
 std::uint32_t frameLength(std::string_view bytes);
