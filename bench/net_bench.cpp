@@ -604,14 +604,17 @@ int runAll(const std::string& what, const std::string& sizes) {
 // One measurement as one line of numbers, for the side-by-side comparison
 // (bench/run_peer_comparison.sh), which interleaves the systems and takes
 // medians over repetitions:
-//   tcp-rtt SIZE, peis-rtt SIZE   -> p50 p90 p99 (us)
+//   tcp-rtt SIZE, peis-rtt SIZE   -> p50 p90 p99 (us); PEIS_BENCH_ROUNDS=N for N rounds
 //   peis-stream SIZE              -> delivered/s delivered written coalesced
 //   scale N                       -> seconds-to-all idle-cpu-% rss pss private (KiB)
 int runOnce(const std::string& kind, const std::string& argument) {
   const std::string ecology = "bench-" + std::to_string(getpid());
   const auto value = std::stoul(argument);
   if (kind == "tcp-rtt" || kind == "peis-rtt") {
-    const int count = value >= 65536 ? 500 : 2000;
+    // PEIS_BENCH_ROUNDS: another number of round trips (CPU time per round
+    // trip is the difference of two runs of different lengths).
+    const char* rounds = std::getenv("PEIS_BENCH_ROUNDS");
+    const int count = rounds ? std::atoi(rounds) : value >= 65536 ? 500 : 2000;
     const auto p = kind == "tcp-rtt" ? tcpRoundTrip(value, count)
                                      : peisRoundTrip(value, count, ecology + "-rtt");
     std::printf("%.2f %.2f %.2f\n", p.p50, p.p90, p.p99);
