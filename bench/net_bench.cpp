@@ -247,6 +247,9 @@ Percentiles peisRoundTrip(std::size_t bytes, int count, const std::string& ecolo
     if (i >= 50)
       micros.push_back(std::chrono::duration<double, std::micro>(Clock::now() - start).count());
   }
+  // Ended with SIGTERM (the echo's run() returns and it exits): a profiler
+  // following the echo (valgrind --trace-children) then writes its figures.
+  echo.stop();
   if (micros.empty()) return {-1, -1, -1};
   return percentiles(micros);
 }
