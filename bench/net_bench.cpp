@@ -226,8 +226,12 @@ Percentiles peisRoundTrip(std::size_t bytes, int count, const std::string& ecolo
   std::condition_variable cv;
   std::string lastPong;
   kernel.onChange(peis::Pattern::exact(2, "pong"), [&](const peis::Tuple& t) {
-    std::lock_guard lock(mu);
-    lastPong = t.data.substr(0, 16);
+    {
+      std::lock_guard lock(mu);
+      lastPong = t.data.substr(0, 16);
+    }
+    // Woken after the lock is let go: the waiter does not wake only to
+    // block on the lock again.
     cv.notify_one();
   });
   kernel.subscribe(peis::Pattern::exact(2, "pong"));
