@@ -32,7 +32,11 @@ struct PlacingHandler : peis::net::LinkHandler {
   int placed = 0, reservedTaken = 0, reservedRefused = 0;
 
   void onFrame(Link&, std::string_view frame) override { frames.emplace_back(frame); }
-  bool onOversize(Link&, std::string_view) override { return false; }
+  // An oversized frame is answered from its head and the rest skipped.
+  bool onOversize(Link&, std::string_view head) override {
+    frames.push_back("oversize " + std::string(head.substr(0, 1)));
+    return true;
+  }
   char* placeFrame(Link&, std::string_view h, std::size_t length, std::size_t& from) override {
     if (h[0] != 'P') return nullptr;
     head = h.substr(0, kHead);
@@ -94,9 +98,9 @@ struct Pair {
   PlacingHandler handler;
   peis::net::Counters counters;
   std::shared_ptr<Link> link;
-  Pair() {
+  explicit Pair(std::size_t maxFrameBytes = 1 << 20) {
     peer.connect(acceptor.local_endpoint());
-    link = std::make_shared<Link>(handler, counters, 1 << 20, acceptor.accept(), false, -1);
+    link = std::make_shared<Link>(handler, counters, maxFrameBytes, acceptor.accept(), false, -1);
     link->start(peis::wire::Hello{});
     link->establish();
   }
@@ -161,4 +165,19 @@ TEST_CASE("the frame after a placed one is read into a place reserved for one li
     CHECK(pair.handler.frames == sent);
     CHECK(pair.handler.reservedRefused >= 1);
   }
+}
+
+TEST_CASE("the rest of an oversized frame after a placed one is skipped and not placed",
+          "[unit][link]") {
+  Pair pair(100 * 1024);  // frames over 100 KiB are oversized here
+  const auto first = big('P', 40000, 1);
+  pair.send({first});
+  // Skipped bytes that look like a frame like the last placed one.
+  std::string oversized = big('O', 300 * 1024, 2);
+  const auto lookalike = frame(big('P', 40000, 3));
+  oversized.replace(200 * 1024, lookalike.size(), lookalike);
+  const auto after = big('P', 40000, 4);
+  pair.send({oversized, after, "s"});
+  CHECK(pair.handler.frames == std::vector<std::string>{first, "oversize O", after, "s"});
+  CHECK(pair.counters.malformedFrames == 0);
 }

@@ -379,10 +379,11 @@ void Link::read() {
                                             asio::buffer(in_.get() + inEnd_, room)},
         handler);
   }
-  if (expectedHead_ > 0 && inEnd_ == 0) {
+  if (expectedHead_ > 0 && inEnd_ == 0 && skip_ == 0) {
     // The next frame is expected to be like the last placed one: its head
     // into in_, its data into the place reserved for it, what follows
-    // into in_ again (one read for the whole frame).
+    // into in_ again (one read for the whole frame). (Not while the rest
+    // of an oversized frame is being skipped: those bytes begin no frame.)
     reserved_ = handler_.reservePlace(*this, expectedPlaced_);
     if (reserved_) {
       const auto after = makeReadRoom(expectedHead_ + readRoom_) - expectedHead_;
