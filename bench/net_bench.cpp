@@ -227,27 +227,38 @@ Percentiles peisRoundTrip(std::size_t bytes, int count, const std::string& ecolo
   std::condition_variable cv;
   std::string lastPong;
   kernel.onChange(peis::Pattern::exact(2, "pong"), [&](const peis::Tuple& t) {
-    std::lock_guard lock(mu);
-    lastPong = t.data.substr(0, 16);
+    {
+      std::lock_guard lock(mu);
+      lastPong = t.data.substr(0, 16);
+    }
+    // Woken after the lock is let go: the waiter does not wake only to
+    // block on the lock again.
     cv.notify_one();
   });
   kernel.subscribe(peis::Pattern::exact(2, "pong"));
   // Wait until the echo is subscribed to our ping.
   waitFor([&] { return kernel.get(peis::special::kSubscribers)->data == "2"; }, 10s);
-  std::string payload(bytes, 'x');
   std::vector<double> micros;
   for (int i = 0; i < count + 50; ++i) {
+    // Each round's value is made before the clock starts and handed over
+    // (publish takes its data by value): as a producer of fresh values
+    // (a camera's frames) writes, and as the TCP baseline writes its
+    // message from where it is, without copying it first.
+    std::string payload(bytes, 'x');
     char tag[17];
     std::snprintf(tag, sizeof tag, "%016d", i);
     std::memcpy(payload.data(), tag, std::min<std::size_t>(16, bytes));
     const std::string expect = payload.substr(0, 16);
     const auto start = Clock::now();
-    kernel.publish("ping", payload);
+    kernel.publish("ping", std::move(payload));
     std::unique_lock lock(mu);
     if (!cv.wait_for(lock, 5s, [&] { return lastPong == expect; })) break;
     if (i >= 50)
       micros.push_back(std::chrono::duration<double, std::micro>(Clock::now() - start).count());
   }
+  // Ended with SIGTERM (the echo's run() returns and it exits): a profiler
+  // following the echo (valgrind --trace-children) then writes its figures.
+  echo.stop();
   if (micros.empty()) return {-1, -1, -1};
   return percentiles(micros);
 }
@@ -616,7 +627,7 @@ int runAll(const std::string& what, const std::string& sizes) {
 // One measurement as one line of numbers, for the side-by-side comparison
 // (bench/run_peer_comparison.sh), which interleaves the systems and takes
 // medians over repetitions:
-//   tcp-rtt SIZE, peis-rtt[-secured] SIZE -> p50 p90 p99 (us)
+//   tcp-rtt SIZE, peis-rtt[-secured] SIZE -> p50 p90 p99 (us); PEIS_BENCH_ROUNDS=N for N rounds
 //   peis-stream[-secured] SIZE    -> delivered/s delivered written coalesced
 // (`-secured`: in a secured ecology of fresh credentials)
 //   scale N                       -> seconds-to-all idle-cpu-% rss pss private (KiB)
@@ -642,7 +653,10 @@ int runOnce(const std::string& kind, const std::string& argument) {
     }
   } removeKeys{dir, secured};
   if (kind == "tcp-rtt" || kind == "peis-rtt" || kind == "peis-rtt-secured") {
-    const int count = value >= 65536 ? 500 : 2000;
+    // PEIS_BENCH_ROUNDS: another number of round trips (CPU time per round
+    // trip is the difference of two runs of different lengths).
+    const char* rounds = std::getenv("PEIS_BENCH_ROUNDS");
+    const int count = rounds ? std::atoi(rounds) : value >= 65536 ? 500 : 2000;
     const auto p = kind == "tcp-rtt" ? tcpRoundTrip(value, count)
                                      : peisRoundTrip(value, count, ecology + "-rtt", credentials);
     std::printf("%.2f %.2f %.2f\n", p.p50, p.p90, p.p99);

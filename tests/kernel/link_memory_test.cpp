@@ -28,6 +28,12 @@ struct CountingHandler : peis::net::LinkHandler {
     bytes += frame.size();
   }
   bool onOversize(peis::net::Link&, std::string_view) override { return false; }
+  char* placeFrame(peis::net::Link&, std::string_view, std::size_t, std::size_t&) override {
+    return nullptr;  // every frame read whole
+  }
+  char* reservePlace(peis::net::Link&, std::size_t) override { return nullptr; }
+  bool placeReserved(peis::net::Link&, std::string_view, std::size_t) override { return false; }
+  void onPlacedFrame(peis::net::Link&) override {}
   void onReadDone(peis::net::Link&) override {}
   void onWritten(peis::net::Link&) override {}
   void onClosed(peis::net::Link&, const std::string&) override {}

@@ -717,6 +717,51 @@ TEST_CASE("wire: a TupleUpdate encoded without its data, followed by the data, i
   CHECK(whole.size() == tupleUpdateFrameBytes(t));
 }
 
+TEST_CASE("wire: the head of a big TupleUpdate says where its data goes", "[unit][wire]") {
+  auto t = sampleTuple();
+  t.data = std::string(900, 'd');
+  const auto frame = frameOf(RoutedMessage{Envelope{7, 3, 30}, TupleUpdate{70, t}});
+  const auto body = bodyOf(frame);
+  const std::size_t headBytes = body.size() - t.data.size();
+  RoutedMessage out;
+  std::size_t dataAt = 0;
+
+  SECTION("every field but the data, from the head alone or with some data") {
+    for (const auto arrived : {headBytes, headBytes + 100, body.size() - 1}) {
+      INFO(arrived);
+      out.body = TupleUpdate{};
+      std::get<TupleUpdate>(out.body).tuple.data = "left as it was";
+      REQUIRE(decodeTupleUpdateHead(body.substr(0, arrived), body.size(), kLimit, out, dataAt));
+      CHECK(dataAt == headBytes);
+      CHECK(out.envelope == Envelope{7, 3, 30});
+      auto decoded = std::get<TupleUpdate>(out.body);
+      CHECK(decoded.ownerIncarnation == 70);
+      CHECK(decoded.tuple.data == "left as it was");
+      decoded.tuple.data = t.data;
+      CHECK(decoded.tuple == t);
+    }
+  }
+  SECTION("anything else is read whole (and decoded, or rejected, as any frame)") {
+    // A head cut short, the whole frame, data over the limit, data that does
+    // not end the frame, a bad key, another message type.
+    CHECK_FALSE(
+        decodeTupleUpdateHead(body.substr(0, headBytes - 1), body.size(), kLimit, out, dataAt));
+    CHECK_FALSE(decodeTupleUpdateHead(body, body.size(), kLimit, out, dataAt));
+    CHECK_FALSE(decodeTupleUpdateHead(body.substr(0, headBytes), body.size(), 899, out, dataAt));
+    CHECK_FALSE(
+        decodeTupleUpdateHead(body.substr(0, headBytes), body.size() + 1, kLimit, out, dataAt));
+    auto bad = t;
+    bad.key = "robot..x";
+    const auto badFrame = frameOf(RoutedMessage{Envelope{7, 3, 30}, TupleUpdate{70, bad}});
+    CHECK_FALSE(decodeTupleUpdateHead(bodyOf(badFrame).substr(0, headBytes), body.size(), kLimit,
+                                      out, dataAt));
+    const auto write =
+        frameOf(RoutedMessage{Envelope{7, 3, 30}, Write{9, WriteOp::Set, std::nullopt, 0, t}});
+    CHECK_FALSE(decodeTupleUpdateHead(bodyOf(write).substr(0, headBytes + 40), bodyOf(write).size(),
+                                      kLimit, out, dataAt));
+  }
+}
+
 TEST_CASE("wire: an oversized frame is read from its head and answered", "[unit][wire]") {
   constexpr std::size_t kSmall = 100;
   auto t = sampleTuple();

@@ -6,8 +6,10 @@
 #include <sys/socket.h>
 
 #include <algorithm>
+#include <array>
 #include <boost/asio/post.hpp>
 #include <boost/asio/write.hpp>
+#include <cerrno>
 #include <cstring>
 
 #include "net/counters.h"
@@ -361,23 +363,153 @@ void Link::read() {
           self->read();
         });
   }
-  makeReadRoom(readRoom_);
-  socket_.async_read_some(
-      asio::buffer(in_.get() + inEnd_, inCapacity_ - inEnd_),
-      [self = shared_from_this()](const boost::system::error_code& ec, std::size_t n) {
-        if (ec) return self->close(ec == asio::error::eof ? "closed by peer" : ec.message());
-        self->lastHeard_ = SteadyClock::now();
-        // Filled: more is likely waiting (a link in its handshake keeps
-        // the first, small buffer).
-        if (n == self->inCapacity_ - self->inEnd_ && self->established_) {
-          self->readRoom_ = std::min(2 * self->readRoom_, kMaxReadRoom);
-        }
-        self->inEnd_ += n;
-        self->parse();
-        self->handler_.onReadDone(*self);
-        self->shrinkIfIdle(n);
-        self->read();
-      });
+  const auto room = makeReadRoom(readRoom_);
+  const auto handler = [self = shared_from_this()](const boost::system::error_code& ec,
+                                                   std::size_t n) {
+    if (ec) return self->close(ec == asio::error::eof ? "closed by peer" : ec.message());
+    self->received(n, self->asked_);
+    self->afterRead(n);
+  };
+  asked_ = room;
+  if (placedLeft_ > 0) {
+    // The rest of a placed frame into its place, what follows into in_.
+    asked_ += placedLeft_;
+    return socket_.async_read_some(
+        std::array<asio::mutable_buffer, 2>{asio::buffer(placedAt_, placedLeft_),
+                                            asio::buffer(in_.get() + inEnd_, room)},
+        handler);
+  }
+  if (expectedHead_ > 0 && inEnd_ == 0 && skip_ == 0) {
+    // The next frame is expected to be like the last placed one: its head
+    // into in_, its data into the place reserved for it, what follows
+    // into in_ again (one read for the whole frame). (Not while the rest
+    // of an oversized frame is being skipped: those bytes begin no frame.)
+    reserved_ = handler_.reservePlace(*this, expectedPlaced_);
+    if (reserved_) {
+      const auto after = makeReadRoom(expectedHead_ + readRoom_) - expectedHead_;
+      asked_ = expectedHead_ + expectedPlaced_ + after;
+      return socket_.async_read_some(
+          std::array<asio::mutable_buffer, 3>{asio::buffer(in_.get(), expectedHead_),
+                                              asio::buffer(reserved_, expectedPlaced_),
+                                              asio::buffer(in_.get() + expectedHead_, after)},
+          handler);
+    }
+    expectedHead_ = 0;
+  }
+  socket_.async_read_some(asio::buffer(in_.get() + inEnd_, room), handler);
+}
+
+// One read of what has arrived, from this thread, never waiting: the rest
+// of a placed frame into its place, then into in_. Returns the bytes read:
+// 0 when nothing had arrived or the link closed.
+std::size_t Link::receive() {
+  const auto room = makeReadRoom(readRoom_);
+  iovec parts[2];
+  int count = 0;
+  if (placedLeft_ > 0) parts[count++] = {placedAt_, placedLeft_};
+  parts[count++] = {in_.get() + inEnd_, room};
+  msghdr message{};
+  message.msg_iov = parts;
+  message.msg_iovlen = static_cast<std::size_t>(count);
+  const auto n = ::recvmsg(socket_.native_handle(), &message, MSG_DONTWAIT);
+  if (n > 0) {
+    received(static_cast<std::size_t>(n), room + (count == 2 ? placedLeft_ : 0));
+    return static_cast<std::size_t>(n);
+  }
+  filled_ = false;
+  if (n == 0) {
+    close("closed by peer");
+  } else if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) {
+    close(std::strerror(errno));
+  }
+  return 0;
+}
+
+// `n` bytes arrived by a read of at most `asked`: into the placed frame's
+// place first (if any), then into in_.
+void Link::received(std::size_t n, std::size_t asked) {
+  lastHeard_ = SteadyClock::now();
+  filled_ = n == asked;
+  if (reserved_) return receivedAsExpected(n);
+  const auto placed = std::min(n, placedLeft_);
+  // Filled: more is likely waiting (a link in its handshake keeps the
+  // first, small buffer).
+  if (placedLeft_ == 0 && filled_ && established_) {
+    readRoom_ = std::min(2 * readRoom_, kMaxReadRoom);
+  }
+  inEnd_ += n - placed;
+  if (placed == 0) return;
+  placedAt_ += placed;
+  placedLeft_ -= placed;
+  if (placedLeft_ == 0) completePlaced();
+}
+
+// A read laid out for a frame like the last placed one (read()): if it is
+// one, its data is in place already; if not, its bytes go back to where a
+// plain read puts them (a copy, as a frame read whole costs) and no frame
+// is expected until another is placed.
+void Link::receivedAsExpected(std::size_t n) {
+  char* const place = std::exchange(reserved_, nullptr);
+  const auto head = expectedHead_;
+  if (n <= head) {  // only the head's room: as a plain read
+    inEnd_ = n;
+    return;
+  }
+  const auto landed = std::min(n - head, expectedPlaced_);
+  const auto after = n - head - landed;
+  const auto length = wire::frameLength(std::string_view(in_.get(), wire::kFrameHeaderBytes));
+  if (wire::kFrameHeaderBytes + length == head + expectedPlaced_ && mayPlace(length) &&
+      handler_.placeReserved(
+          *this,
+          std::string_view(in_.get() + wire::kFrameHeaderBytes, head - wire::kFrameHeaderBytes),
+          length)) {
+    inPos_ = head;
+    inEnd_ = head + after;
+    placedAt_ = place + landed;
+    placedLeft_ = expectedPlaced_ - landed;
+    if (placedLeft_ == 0) completePlaced();
+    return;
+  }
+  expectedHead_ = 0;
+  std::unique_ptr<char[]> merged;
+  char* to = in_.get();
+  if (inCapacity_ < n) {
+    merged.reset(new char[n]);
+    std::memcpy(merged.get(), in_.get(), head);
+    to = merged.get();
+  }
+  std::memmove(to + head + landed, in_.get() + head, after);
+  std::memcpy(to + head, place, landed);
+  if (merged) {
+    in_ = std::move(merged);
+    inCapacity_ = n;
+  }
+  inEnd_ = n;
+}
+
+// The last byte of the placed frame has arrived. The next read is small
+// again (the head of the next big frame, with little of its data), unless
+// the next frame is expected to be like this one.
+void Link::completePlaced() {
+  placedAt_ = nullptr;
+  readRoom_ = kFirstReadRoom;
+  handler_.onPlacedFrame(*this);
+}
+
+// The frames of a read to the handler. A frame placed by a read that
+// filled its room is most likely all here already: its rest is read in the
+// same turn (once: a flood of big frames still lets other work run).
+void Link::afterRead(std::size_t n) {
+  if (!closed_) parse();
+  if (placedLeft_ > 0 && filled_ && !closed_) {
+    if (const auto more = receive(); more > 0) {
+      n += more;
+      parse();
+    }
+  }
+  handler_.onReadDone(*this);
+  shrinkIfIdle(n);
+  read();
 }
 
 void Link::shrinkIfIdle(std::size_t readBytes) {
@@ -385,9 +517,11 @@ void Link::shrinkIfIdle(std::size_t readBytes) {
     smallReads_ = 0;
     return;
   }
-  if (++smallReads_ < kIdleReads || inPos_ != inEnd_ || closed_) return;
+  if (++smallReads_ < kIdleReads || inPos_ != inEnd_ || placedLeft_ > 0 || closed_) return;
   smallReads_ = 0;
   readRoom_ = kFirstReadRoom;
+  expectedHead_ = 0;  // and the place reserved for it is let go
+  placed_.reset();
   if (inCapacity_ > kFirstReadRoom) {
     in_.reset();
     inCapacity_ = 0;
@@ -404,18 +538,20 @@ void Link::shrinkIfIdle(std::size_t readBytes) {
 
 // Room after inEnd_ for `want` bytes (a read's, or an opened record's), or
 // for the rest of a frame whose length is known to be bigger, so a big
-// frame arrives in place.
-void Link::makeReadRoom(std::size_t want) {
+// frame arrives in one piece (unless it will be placed: then only its head
+// need arrive here). Returns the room made, which a read fills at most.
+std::size_t Link::makeReadRoom(std::size_t want) {
   const std::size_t pending = inEnd_ - inPos_;
   if (pending >= wire::kFrameHeaderBytes) {
     const auto frame =
         wire::kFrameHeaderBytes + wire::frameLength(std::string_view(in_.get() + inPos_, 4));
     // (parse() has closed the link on an impossible length already)
-    if (frame > pending && frame <= frameLimit() + wire::kFrameHeaderBytes) {
+    if (frame > pending && frame <= frameLimit() + wire::kFrameHeaderBytes &&
+        !mayPlace(frame - wire::kFrameHeaderBytes)) {
       want = std::max(want, frame - pending);
     }
   }
-  if (inCapacity_ - inEnd_ >= want) return;
+  if (inCapacity_ - inEnd_ >= want) return want;
   if (inPos_ > 0) {  // move the partial frame to the front
     std::memmove(in_.get(), in_.get() + inPos_, pending);
     inPos_ = 0;
@@ -429,6 +565,7 @@ void Link::makeReadRoom(std::size_t want) {
     in_ = std::move(bigger);
     inCapacity_ = inEnd_ + want;
   }
+  return want;
 }
 
 // Room after recordsEnd_ for a read: the rest of the record under way, at
@@ -533,9 +670,31 @@ void Link::parse() {
                                 : " is over the " + std::to_string(frameLimit()) + " bytes taken" +
                                       (established_ ? "" : " before the handshake")));
     }
-    if (available < wire::kFrameHeaderBytes + length) break;
+    if (available < wire::kFrameHeaderBytes + length) {
+      // A big frame whose head has arrived: placed, if its handler names
+      // the place (all the bytes read are the frame's).
+      if (mayPlace(length) &&
+          available >=
+              wire::kFrameHeaderBytes + std::min<std::size_t>(length, wire::kOversizeHeadBytes)) {
+        const auto head = std::string_view(in_.get() + inPos_ + wire::kFrameHeaderBytes,
+                                           available - wire::kFrameHeaderBytes);
+        std::size_t from = 0;
+        if (char* place = handler_.placeFrame(*this, head, length, from)) {
+          std::memcpy(place, head.data() + from, head.size() - from);
+          placedAt_ = place + (head.size() - from);
+          placedLeft_ = length - head.size();
+          inPos_ = inEnd_;
+          expectedHead_ = wire::kFrameHeaderBytes + from;
+          expectedPlaced_ = length - from;
+        } else {
+          wholeFrame_ = true;
+        }
+      }
+      break;
+    }
     const auto frame = std::string_view(in_.get() + inPos_ + wire::kFrameHeaderBytes, length);
     inPos_ += wire::kFrameHeaderBytes + length;
+    wholeFrame_ = false;
     handler_.onFrame(*this, frame);
     if (securing_) {  // what follows the peer's Hello is records
       securing_ = false;

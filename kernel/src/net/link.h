@@ -43,6 +43,25 @@ class LinkHandler {
   // PEIS's limit but within the protocol's: the rest is skipped. True when
   // answered (docs/protocol.md §2.1); false makes it a framing error.
   virtual bool onOversize(Link& link, std::string_view head) = 0;
+  // A big frame has begun (placed frames, below): `head` is what has
+  // arrived of it (type first; every field before a tuple's data at
+  // least), `length` its whole length. The handler takes what it needs of
+  // `head` and returns where the frame's bytes from `from` (at most
+  // head.size()) on go, or null to have the frame read whole into the
+  // link's buffer and given to onFrame as any other.
+  virtual char* placeFrame(Link& link, std::string_view head, std::size_t length,
+                           std::size_t& from) = 0;
+  // Where the last `bytes` of the next frame go if it is like the frame
+  // placed last (the same length, its place at the same offset): the next
+  // read puts them there before the frame's head is seen. Null: nowhere.
+  virtual char* reservePlace(Link& link, std::size_t bytes) = 0;
+  // A read put a frame's last bytes into the reserved place: true if the
+  // frame (its `head`, every byte before the place, and its `length`) is
+  // one whose bytes belong there; false takes them back to be read whole.
+  virtual bool placeReserved(Link& link, std::string_view head, std::size_t length) = 0;
+  // The last byte of the frame placeFrame() or placeReserved() took has
+  // arrived.
+  virtual void onPlacedFrame(Link& link) = 0;
   // Every frame of one socket read was handed over.
   virtual void onReadDone(Link& link) = 0;
   // A write finished (the link's backlog() went down).
@@ -54,8 +73,22 @@ class LinkHandler {
   ~LinkHandler() = default;
 };
 
+// Placed frames: on an open, established link, a frame of kPlacedFrameBytes
+// or more (a big tuple update) is not read whole into the link's buffer and
+// copied out of it by the decoder: once its head has arrived, the handler
+// decodes the head and names the frame's final place (the tuple's data),
+// and the rest of the frame is read straight there, together with what
+// follows it into the buffer (one scattered read). The read after a placed
+// frame is small (kFirstReadRoom), so the head of the next big frame comes
+// with little of its data; and when that read begins a frame, it expects
+// one like the last placed (a round trip's or a stream's next value): its
+// head into the buffer, the rest into a place the handler reserves, in one
+// read. A frame that is not like it is put back together in the buffer (a
+// copy) and nothing is expected until a frame is placed again.
 class Link : public std::enable_shared_from_this<Link> {
  public:
+  static constexpr std::size_t kPlacedFrameBytes = 32 * 1024;
+
   using SteadyClock = std::chrono::steady_clock;
 
   // `maxFrameBytes`: the largest frame length accepted once the handshake
@@ -120,7 +153,9 @@ class Link : public std::enable_shared_from_this<Link> {
   // host lives and takes our bytes, though its process may be slow).
   bool peerAcknowledgesAll();
   // Part of a frame has arrived and the rest has not (a big frame in transit).
-  bool midFrame() const { return inEnd_ > inPos_ || skip_ > 0 || recordsEnd_ > recordsPos_; }
+  bool midFrame() const {
+    return inEnd_ > inPos_ || skip_ > 0 || placedLeft_ > 0 || recordsEnd_ > recordsPos_;
+  }
   bool closed() const { return closed_; }
   // The memory of the read buffer and of the spare write chunk (an idle
   // link's is small: shrinkIfIdle).
@@ -159,6 +194,9 @@ class Link : public std::enable_shared_from_this<Link> {
   // Found congested by the Network (its backlog over the high-water mark);
   // cleared when it drains to half. Read by lockForDirect() on any thread.
   std::atomic<bool> congested_{false};
+  // The message of the frame being placed (its data read into place); made
+  // at the link's first placed frame.
+  std::unique_ptr<wire::RoutedMessage> placed_;
   // What the Network keeps of a secured link (net/link_security.h); null in
   // an open ecology.
   std::unique_ptr<LinkSecurity> security_;
@@ -186,7 +224,16 @@ class Link : public std::enable_shared_from_this<Link> {
   void read();
   // Back to small buffers once reads have been small for a while.
   void shrinkIfIdle(std::size_t readBytes);
-  void makeReadRoom(std::size_t want);
+  std::size_t makeReadRoom(std::size_t want);
+  std::size_t receive();
+  void received(std::size_t n, std::size_t asked);
+  void receivedAsExpected(std::size_t n);
+  void completePlaced();
+  void afterRead(std::size_t n);
+  // Whether the frame at inPos_ (of `length` bytes) may be placed.
+  bool mayPlace(std::size_t length) const {
+    return established_ && !cipher_ && !wholeFrame_ && length >= kPlacedFrameBytes;
+  }
   void makeRecordRoom();
   void parse();
   // Opens the whole records among the bytes read; false if the link closed.
@@ -216,7 +263,18 @@ class Link : public std::enable_shared_from_this<Link> {
   bool securing_ = false;  // secure() was called from the frame being handled
   std::string ownHello_;
   std::size_t skip_ = 0;  // bytes of an oversized frame still to be skipped
-  int smallReads_ = 0;    // reads in a row smaller than the first read room
+  // A placed frame: where its next bytes go, and how many are still to come.
+  char* placedAt_ = nullptr;
+  std::size_t placedLeft_ = 0;
+  bool wholeFrame_ = false;  // the handler declined the frame at inPos_: read it whole
+  // The frame expected next (like the last placed): the bytes before its
+  // place, and in it (expectedHead_ 0: none expected); the place reserved
+  // for it by the read under way.
+  std::size_t expectedHead_ = 0, expectedPlaced_ = 0;
+  char* reserved_ = nullptr;
+  bool filled_ = false;    // the last read filled all the room it had
+  std::size_t asked_ = 0;  // the room of the read under way
+  int smallReads_ = 0;     // reads in a row smaller than the first read room
   // --- The write side: the kernel thread and direct senders -----------------------
   mutable AdaptiveMutex writeMu_;
   bool writeClosed_ GUARDED_BY(writeMu_) = false;      // the socket is closed (or closing)

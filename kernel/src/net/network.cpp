@@ -24,6 +24,7 @@
 #include "net/link_policy.h"
 #include "net/link_security.h"
 #include "net/routing_table.h"
+#include "net/string_room.h"
 #include "peis/error.h"
 #include "peis/key.h"
 #include "peis/options.h"
@@ -116,6 +117,13 @@ class Network::Impl final : public LinkHandler {
   // its first kOversizeHeadBytes): answered, not dropped (protocol.md §2.1).
   // False when it is not one (malformed).
   bool onOversize(Link& link, std::string_view head) override;
+  // A big TupleUpdate for this PEIS on an open link: its data is read
+  // straight into the tuple's (net/link.h, "placed frames").
+  char* placeFrame(Link& link, std::string_view head, std::size_t length,
+                   std::size_t& from) override;
+  char* reservePlace(Link& link, std::size_t bytes) override;
+  bool placeReserved(Link& link, std::string_view head, std::size_t length) override;
+  void onPlacedFrame(Link& link) override;
   void onReadDone(Link&) override { flushInbox(); }
   void onWritten(Link& link) override;
   void onClosed(Link& link, const std::string& reason) override;
@@ -180,6 +188,8 @@ class Network::Impl final : public LinkHandler {
   void advertise();
   // --- routed frames
   void onRouted(Link& link, std::string_view frame);
+  std::string* placedData(Link& link);
+  bool decodePlaced(Link& link, std::string_view head, std::size_t length, std::size_t& from);
   void deliverOrForward(std::string_view frame, wire::RoutedMessage&& message, PeisId from,
                         const std::string& tag);
   void forwardFrame(std::string_view frame, const wire::Envelope& envelope,
@@ -541,6 +551,56 @@ void Network::Impl::onFrame(Link& link, std::string_view frame) {
     if (!link.security_) return onMalformed(link, "a SourceTag on an open link");
     link.security_->pendingTag = std::move(tag->tag);
   }
+}
+
+char* Network::Impl::placeFrame(Link& link, std::string_view head, std::size_t length,
+                                std::size_t& from) {
+  auto* data = placedData(link);
+  if (!data || !decodePlaced(link, head, length, from)) return nullptr;
+  // Sized, not zero-filled: the link writes every byte.
+  data->clear();
+  resizeForOverwrite(*data, length - from);
+  return data->data();
+}
+
+char* Network::Impl::reservePlace(Link& link, std::size_t bytes) {
+  auto* data = placedData(link);
+  if (!data) return nullptr;
+  if (data->size() != bytes) {  // else reserved before and not used
+    data->clear();
+    resizeForOverwrite(*data, bytes);
+  }
+  return data->data();
+}
+
+bool Network::Impl::placeReserved(Link& link, std::string_view head, std::size_t length) {
+  std::size_t from = 0;
+  return decodePlaced(link, head, length, from) && from == head.size();
+}
+
+// The data of the message a link places; null on a link whose frames are
+// read whole (a secured link's come out of its records).
+std::string* Network::Impl::placedData(Link& link) {
+  if (!link.established_ || link.security_) return nullptr;
+  if (!link.placed_) link.placed_ = std::make_unique<wire::RoutedMessage>();
+  auto* update = std::get_if<wire::TupleUpdate>(&link.placed_->body);
+  if (!update) update = &link.placed_->body.emplace<wire::TupleUpdate>();
+  return &update->tuple.data;
+}
+
+// The head of a frame a link places into its message: a TupleUpdate for
+// this PEIS (a frame passing through is forwarded as bytes: read whole).
+bool Network::Impl::decodePlaced(Link& link, std::string_view head, std::size_t length,
+                                 std::size_t& from) {
+  return wire::decodeTupleUpdateHead(head, length, config_.maxDataBytes, *link.placed_, from) &&
+         link.placed_->envelope.destination == self_;
+}
+
+// As onFrame's routed frames: into the inbox, then onRouted's checks.
+void Network::Impl::onPlacedFrame(Link& link) {
+  ++counters_.framesIn;
+  inbox_.push_back(std::move(*link.placed_));
+  onRouted(link, {});
 }
 
 bool Network::Impl::onOversize(Link& link, std::string_view head) {
@@ -1080,8 +1140,12 @@ void Network::Impl::advertise() {
 // --- Routed frames -------------------------------------------------------------------
 
 // The message is inbox_.back(): it stays there only when it is for this PEIS.
+// `frame` is empty for a placed frame (a TupleUpdate for this PEIS from an
+// open link, never forwarded): its bytes, needed only if it is held, are
+// encoded again from the message then.
 void Network::Impl::onRouted(Link& link, std::string_view frame) {
   const auto envelope = inbox_.back().envelope;
+  std::string placedBytes;
   auto drop = [this] { inbox_.pop_back(); };
   // A secured link: the frame's SourceTag, if one came right before it.
   std::string tag;
@@ -1118,6 +1182,10 @@ void Network::Impl::onRouted(Link& link, std::string_view frame) {
       // A PEIS we have no route to yet: the adverts naming it travel one hop
       // per advert delay, its first messages can be faster. Hold them
       // briefly, within bounds (Limits::maxHeldBytes).
+      if (frame.empty()) {  // a placed frame
+        placedBytes = wire::encodeFrame(inbox_.back()).substr(wire::kFrameHeaderBytes);
+        frame = placedBytes;
+      }
       if (held_.size() >= kMaxHeldFrames || heldBytes_ + frame.size() > config_.maxHeldBytes) {
         ++counters_.unroutable;
         limitHit(counters_.heldFramesDropped, "held",

@@ -199,6 +199,7 @@ class Reader {
       invalid(what, v);
     return v;
   }
+  std::size_t position() const { return pos_; }
   void end() {
     if (ok_ && pos_ != in_.size()) {
       fail(std::to_string(in_.size() - pos_) + " unexpected trailing bytes");
@@ -761,6 +762,26 @@ void recycleDataBuffer(std::string&& buffer) {
   }
   auto& spare = spareDataBuffers();
   if (spare.size() < kSpareDataBuffers) spare.push_back(std::move(buffer));
+}
+
+bool decodeTupleUpdateHead(std::string_view head, std::size_t frameLength, std::size_t maxDataBytes,
+                           RoutedMessage& out, std::size_t& dataAt) {
+  if (head.empty() || head.size() >= frameLength ||
+      static_cast<std::uint8_t>(head[0]) != static_cast<std::uint8_t>(MessageType::TupleUpdate)) {
+    return false;
+  }
+  Reader r(head.substr(1));
+  out.envelope.source = r.id("source");
+  out.envelope.destination = r.id("destination");
+  out.envelope.ttl = r.u8("ttl");
+  auto* update = std::get_if<TupleUpdate>(&out.body);
+  if (!update) update = &out.body.emplace<TupleUpdate>();
+  update->ownerIncarnation = r.u64("incarnation");
+  const std::size_t dataBytes = readTupleHead(r, update->tuple);
+  // The data must end the frame exactly, within the limit: anything else
+  // is read whole and rejected (or answered) as decode() does.
+  dataAt = 1 + r.position();
+  return r.ok() && dataBytes <= maxDataBytes && dataAt + dataBytes == frameLength;
 }
 
 bool isRoutedFrame(std::string_view frame) {

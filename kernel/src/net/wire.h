@@ -214,6 +214,16 @@ DecodeResult decode(std::string_view frame, std::size_t maxDataBytes);
 // path); false with the reason in `error` for anything decode() rejects.
 bool decodeRouted(std::string_view frame, std::size_t maxDataBytes, RoutedMessage& out,
                   std::string& error);
+// The beginning of a big TupleUpdate frame whose data is then read straight
+// into place (net/link.h, "placed frames"): `head` is what has arrived of a
+// frame of `frameLength` bytes (type and body, without the length prefix).
+// True when `head` holds every field before the data of a well-formed
+// TupleUpdate whose data is within `maxDataBytes` and ends the frame: `out`
+// then holds the update but its data (left as it was), and `dataAt` is
+// where in the frame the data begins. False for anything else, which is
+// then read whole and decoded (or rejected) by decodeRouted().
+bool decodeTupleUpdateHead(std::string_view head, std::size_t frameLength, std::size_t maxDataBytes,
+                           RoutedMessage& out, std::size_t& dataAt);
 // Whether the frame's type byte names a routed message.
 bool isRoutedFrame(std::string_view frame);
 // The memory of a decoded tuple's data that its taker is done with (the
