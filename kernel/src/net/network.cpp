@@ -41,7 +41,12 @@ namespace {
 
 constexpr std::chrono::milliseconds kAdvertDelay{100};  // adverts at most every 100 ms
 constexpr std::chrono::milliseconds kRedialPeriod{1000};
+// Dials wait for the membership to go quiet: 15 ms after a lone change,
+// 100 ms once more PEIS arrive (a burst: dialling in the middle of it links
+// fingers that the next arrivals replace), at most 1 s after the first.
 constexpr std::chrono::milliseconds kDialQuiet{15};
+constexpr std::chrono::milliseconds kDialQuietInBurst{100};
+constexpr int kDialBurst = 3;  // changes before the longer quiet applies
 constexpr std::chrono::milliseconds kDialMaxDelay{1000};
 constexpr std::chrono::milliseconds kRecomputeDelay{20};  // recomputes at most every 20 ms
 constexpr std::chrono::seconds kHoldFor{3};  // how long a frame waits for its source's route
@@ -63,11 +68,11 @@ class Network::Impl final : public LinkHandler {
         incarnation_(incarnation),
         events_(std::move(events)),
         table_(tableConfig(config_, self, incarnation)),
-        discovery_(
-            io,
-            Discovery::Config{config_.ecology, config_.discovery, config_.discoveryPort,
-                              config_.beaconPeriod, config_.tool, config_.credentials != nullptr},
-            counters_, self, incarnation, discoveryEvents()),
+        discovery_(io,
+                   Discovery::Config{config_.ecology, config_.discovery, config_.discoveryPort,
+                                     config_.beaconPeriod, config_.tool,
+                                     config_.credentials != nullptr, config_.maxRoutes},
+                   counters_, self, incarnation, discoveryEvents()),
         acceptor_(io),
         pingTimer_(io),
         redialTimer_(io),
@@ -196,6 +201,7 @@ class Network::Impl final : public LinkHandler {
   // Evaluates dials once beacons have been quiet for a moment (bounded), so
   // PEIS starting together do not link to every target they pass through.
   void scheduleDials();
+  void armDials(SteadyClock::time_point at);
   void pruneLinks();
   // Runs pruneLinks once the membership and the links have been settled for
   // kLinkGrace (not only at the next beacon, which may be 8 s away).
@@ -233,7 +239,9 @@ class Network::Impl final : public LinkHandler {
   bool pruneArmed_ = false;
   SteadyClock::time_point hostBusyUntil_;  // see pingLoop
   bool dialsPending_ = false;
-  SteadyClock::time_point dialsFirstAsked_;
+  bool dialTimerArmed_ = false;
+  int dialsAsked_ = 0;  // changes since the dials were last evaluated
+  SteadyClock::time_point dialsFirstAsked_, dialsLastAsked_;
   Throttle recomputeThrottle_{io_}, advertThrottle_{io_};
   std::vector<std::shared_ptr<Link>> links_;
   std::vector<std::weak_ptr<Link>> explicitLinks_;
@@ -1330,27 +1338,40 @@ void Network::Impl::scheduleDials() {
   if (!dialsPending_) {
     dialsPending_ = true;
     dialsFirstAsked_ = now;
+    dialsAsked_ = 0;
   }
-  const auto due = std::min(now + kDialQuiet, dialsFirstAsked_ + kDialMaxDelay);
-  dialTimer_.expires_at(due);
+  ++dialsAsked_;
+  dialsLastAsked_ = now;
+  // The timer is armed once and, when it fires early, re-armed for what is
+  // left: one timer operation per quiet period, not one per beacon.
+  if (!dialTimerArmed_) armDials(now + kDialQuiet);
+}
+
+void Network::Impl::armDials(SteadyClock::time_point at) {
+  dialTimerArmed_ = true;
+  dialTimer_.expires_at(at);
   dialTimer_.async_wait([this](const boost::system::error_code& ec) {
-    if (ec || stopped_) return;
+    dialTimerArmed_ = false;
+    if (ec || stopped_ || !dialsPending_) return;
+    const auto quiet = dialsAsked_ >= kDialBurst ? kDialQuietInBurst : kDialQuiet;
+    const auto due = std::min(dialsLastAsked_ + quiet, dialsFirstAsked_ + kDialMaxDelay);
+    if (SteadyClock::now() < due) return armDials(due);
     dialsPending_ = false;
     evaluateDials();
   });
 }
 
 void Network::Impl::evaluateDials() {
-  const auto ids = discovery_.sortedIds();
+  const auto& ring = discovery_.ring();
   // A tool dials every overlay peer it has (no other PEIS dials a tool).
   const auto targets = peersToDial(
-      ids, self_, [this](PeisId id) { return findLink(id) != nullptr || dialing_.count(id) != 0; },
+      ring, self_, [this](PeisId id) { return findLink(id) != nullptr || dialing_.count(id) != 0; },
       config_.tool);
   for (const PeisId target : targets) {
     const auto* peer = discovery_.peer(target);
     if (!peer) continue;
     log::debug(self_, "dialling PEIS " + std::to_string(target) + " (overlay of " +
-                          std::to_string(ids.size()) + ")");
+                          std::to_string(ring.size()) + ")");
     dialing_.insert(target);
     auto socket = std::make_shared<tcp::socket>(io_);
     socket->async_connect(tcp::endpoint(peer->address, peer->port),
@@ -1402,7 +1423,7 @@ void Network::Impl::pruneLinks() {
   // Only once the membership has settled, so both ends agree on the overlay;
   // a tool, short-lived, keeps the few links it has.
   if (config_.tool || now - discovery_.membershipChangedAt() < kLinkGrace) return;
-  const auto ids = discovery_.sortedIds();
+  const auto& ring = discovery_.ring();
   auto links = links_;
   for (const auto& link : links) {
     if (!link->established_) continue;
@@ -1413,7 +1434,7 @@ void Network::Impl::pruneLinks() {
                                  now - link->establishedAt_,
                                  table_.hasAlternative(peer),
                                  (link->peer_.capabilities & wire::kCapabilityTool) != 0};
-    if (shouldPrune(ids, self_, question)) link->close("not needed by the overlay");
+    if (shouldPrune(ring, self_, question)) link->close("not needed by the overlay");
   }
 }
 
