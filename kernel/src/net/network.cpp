@@ -223,6 +223,9 @@ class Network::Impl final : public LinkHandler {
   // spoofing checks of docs/protocol.md §14).
   bool sourceMayArriveOver(const Link& link, const wire::Envelope& envelope,
                            SteadyClock::time_point now) const;
+  // Whether a frame that fails them may still come that way once the routes
+  // agree (it is held, not dropped).
+  bool mayConverge(const Link& link, const wire::Envelope& envelope) const;
 
   asio::io_context& io_;
   NetworkConfig config_;
@@ -985,6 +988,8 @@ void Network::Impl::onRoutes(Link& link, wire::Routes& routes) {
   }
   // Adverts arrive in bursts: recompute once per burst.
   if (table_.hasWork()) scheduleRecompute();
+  // A longer offer made shorter may be what held frames wait for.
+  if (!held_.empty()) retryHeld();
 }
 
 void Network::Impl::onLeave(Link& link, const wire::Leave& leave) {
@@ -1111,7 +1116,11 @@ void Network::Impl::onRouted(Link& link, std::string_view frame) {
       inbox_.push_back(std::move(message));
     }
     const auto now = SteadyClock::now();
-    if (!sourceMayArriveOver(link, envelope, now)) {
+    // While routes converge (a join), a source's route to us can be longer
+    // than ours to it, and its frames come from a neighbour offering only
+    // a longer route: they wait until the routes agree, not dropped as
+    // spoofed (which cost the value and, after a few, the relay's link).
+    if (!sourceMayArriveOver(link, envelope, now) && !mayConverge(link, envelope)) {
       ++counters_.malformedFrames;
       log::warn(self_, "dropped a frame from " + link.remote_ + " with spoofed source " +
                            std::to_string(envelope.source));
@@ -1122,10 +1131,10 @@ void Network::Impl::onRouted(Link& link, std::string_view frame) {
       }
       return;
     }
-    if (!table_.contains(envelope.source)) {
+    if (!table_.contains(envelope.source) || !sourceMayArriveOver(link, envelope, now)) {
       // A PEIS we have no route to yet: the adverts naming it travel one hop
       // per advert delay, its first messages can be faster. Hold them
-      // briefly, within bounds (Limits::maxHeldBytes).
+      // briefly, within bounds (Limits::maxHeldBytes); so are those above.
       if (held_.size() >= kMaxHeldFrames || heldBytes_ + frame.size() > config_.maxHeldBytes) {
         ++counters_.unroutable;
         limitHit(counters_.heldFramesDropped, "held",
@@ -1174,6 +1183,13 @@ bool Network::Impl::sourceMayArriveOver(const Link& link, const wire::Envelope& 
   if (link.peer_.id == envelope.source) return true;
   if (table_.mayRelay(link.peer_.id, envelope.source, now, config_.relayGrace)) return true;
   return envelope.destination != self_ && table_.advertises(link.peer_.id, envelope.source);
+}
+
+// A frame for this PEIS from a PEIS further away (not linked), relayed by a
+// neighbour that offers a route to it: a way it may come once routes agree.
+bool Network::Impl::mayConverge(const Link& link, const wire::Envelope& envelope) const {
+  return envelope.destination == self_ && envelope.source != link.peer_.id &&
+         findLink(envelope.source) == nullptr && table_.advertises(link.peer_.id, envelope.source);
 }
 
 void Network::Impl::deliverOrForward(std::string_view frame, wire::RoutedMessage&& message,
@@ -1227,17 +1243,18 @@ void Network::Impl::retryHeld() {
   held_.clear();
   heldBytes_ = 0;
   for (auto& h : held) {
-    const auto source = h.message.envelope.source;
-    if (table_.contains(source)) {
-      // Checked again now that the source has a route: the PEIS it came
-      // from must be one it may come from.
-      const auto* from = findLink(h.from);
-      if (from && sourceMayArriveOver(*from, h.message.envelope, now)) {
-        deliverOrForward(h.frame, std::move(h.message), h.from, h.tag);
-      } else {
-        ++counters_.malformedFrames;
-      }
-    } else if (now - h.arrived > kHoldFor) {
+    const auto& envelope = h.message.envelope;
+    const auto* from = findLink(h.from);
+    const bool young = now - h.arrived <= kHoldFor;
+    const bool routed = table_.contains(envelope.source);
+    // Checked again now that the source has a route: the PEIS it came from
+    // must be one it may come from, or, for a while, may come from once the
+    // routes agree.
+    if (routed && from && sourceMayArriveOver(*from, envelope, now)) {
+      deliverOrForward(h.frame, std::move(h.message), h.from, h.tag);
+    } else if (routed && !(young && from && mayConverge(*from, envelope))) {
+      ++counters_.malformedFrames;
+    } else if (!young) {
       ++counters_.unroutable;
     } else {
       heldBytes_ += h.frame.size();
