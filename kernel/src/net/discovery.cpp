@@ -148,6 +148,7 @@ void Discovery::beaconLoop() {
     const bool quiet = now - it->second.lastSeen > config_.beaconPeriod * kQuietPeriods;
     if (quiet && !(events_.reachable && events_.reachable(it->first))) {
       const bool tool = it->second.tool;
+      if (!tool) ring_.erase(it->first);
       it = peers_.erase(it);
       if (!tool) membershipChanged(now);
     } else {
@@ -178,7 +179,6 @@ void Discovery::armBeacon(SteadyClock::time_point at) {
 // The membership changed: beacon at the configured period again.
 void Discovery::membershipChanged(SteadyClock::time_point now) {
   membershipChanged_ = now;
-  ringStale_ = true;
   if (events_.onMembershipChanged) events_.onMembershipChanged();
   if (interval_ == config_.beaconPeriod) return;
   interval_ = config_.beaconPeriod;
@@ -230,6 +230,7 @@ void Discovery::onBeacon(const Beacon& beacon, const udp::endpoint& from) {
   it->second = Peer{from.address(), beacon.port, beacon.incarnation, SteadyClock::now()};
   if (!beacon.members.empty()) learnMembers(beacon);
   if (!isNew) return;
+  ring_.insert(beacon.id);
   membershipChanged(SteadyClock::now());
   // Only a PEIS the newcomer should link with answers at once (its fingers,
   // and those whose finger it is): N answers to each of N joining PEIS were
@@ -285,6 +286,7 @@ void Discovery::learnMembers(const Beacon& beacon) {
     if (m.id == self_ || m.id == beacon.id || peers_.count(m.id) != 0) continue;
     if (peers_.size() >= config_.maxPeers) break;
     peers_.emplace(m.id, Peer{asio::ip::address_v4(m.address), m.port, m.incarnation, now});
+    ring_.insert(m.id);
     learnt = m.id;
   }
   if (learnt == 0) return;

@@ -78,7 +78,8 @@ class Discovery {
 
   // The known PEIS but tools, and this one, ascending (the overlay's input).
   std::vector<PeisId> sortedIds() const;
-  // The same on the overlay's ring, rebuilt only when the membership changed.
+  // The same on the overlay's ring, kept up to date PEIS by PEIS (built
+  // again only when this PEIS's id or a tool flag changed).
   const Ring& ring() const;
   const Peer* peer(PeisId id) const;
   bool knows(PeisId id) const { return peers_.count(id) != 0; }

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <boost/asio/connect.hpp>
 #include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/post.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <deque>
 #include <map>
@@ -1059,12 +1060,27 @@ void Network::Impl::throttle(Throttle& t, std::chrono::milliseconds interval,
                              void (Impl::*work)()) {
   if (t.scheduled || stopped_) return;
   t.scheduled = true;
-  t.timer.expires_at(std::max(SteadyClock::now(), t.last + interval));
-  t.timer.async_wait([this, &t, work](const boost::system::error_code& ec) {
+  auto run = [this, &t, work] {
     t.scheduled = false;
-    if (ec || stopped_) return;
+    if (stopped_) return;
     t.last = SteadyClock::now();
     (this->*work)();
+  };
+  const auto due = t.last + interval;
+  if (due <= SteadyClock::now()) {
+    // Due now: posted. A timer due now cost a system call (the reactor
+    // re-arms its timerfd for the earliest timer) per run, thousands in a
+    // join.
+    asio::post(io_, std::move(run));
+    return;
+  }
+  t.timer.expires_at(due);
+  t.timer.async_wait([&t, run = std::move(run)](const boost::system::error_code& ec) {
+    if (ec) {
+      t.scheduled = false;
+      return;
+    }
+    run();
   });
 }
 

@@ -61,6 +61,18 @@ Ring::Ring(const std::vector<PeisId>& ids) {
   ring_.erase(std::unique(ring_.begin(), ring_.end()), ring_.end());
 }
 
+void Ring::insert(PeisId id) {
+  const std::pair<std::uint32_t, PeisId> entry(ringPosition(id), id);
+  const auto at = std::lower_bound(ring_.begin(), ring_.end(), entry);
+  if (at == ring_.end() || *at != entry) ring_.insert(at, entry);
+}
+
+void Ring::erase(PeisId id) {
+  const std::pair<std::uint32_t, PeisId> entry(ringPosition(id), id);
+  const auto at = std::lower_bound(ring_.begin(), ring_.end(), entry);
+  if (at != ring_.end() && *at == entry) ring_.erase(at);
+}
+
 bool Ring::anyIn(std::uint64_t from, std::uint64_t to) const {
   auto at = [&](std::uint64_t position) {
     return std::lower_bound(

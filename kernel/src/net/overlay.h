@@ -34,6 +34,10 @@ class Ring {
   explicit Ring(const std::vector<PeisId>& ids);
   // Whether a and b (both on the ring) keep a link.
   bool wants(PeisId a, PeisId b) const;
+  // Puts one PEIS on the ring or takes it off: O(N), where building it
+  // again sorts (a join of N PEIS changes each PEIS's ring N times).
+  void insert(PeisId id);
+  void erase(PeisId id);
   // Every b that wants(a, b), ascending.
   std::vector<PeisId> peers(PeisId a) const;
   // The PEIS nearest after and before `a` on the ring (`a` need not be on
