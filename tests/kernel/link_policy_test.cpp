@@ -57,10 +57,10 @@ TEST_CASE("link policy: the lower id dials, a tool dials all its overlay peers",
           "[unit][link-policy]") {
   const std::vector<PeisId> ids{10, 11, 12, 14, 30};
   auto none = [](PeisId) { return false; };
-  for (const PeisId target : peersToDial(Ring(ids), 12, none)) CHECK(target > 12);
-  const auto all = peersToDial(Ring(ids), 12, none, true);
+  for (const PeisId target : peersToDial(ids, 12, none)) CHECK(target > 12);
+  const auto all = peersToDial(ids, 12, none, true);
   CHECK(std::find(all.begin(), all.end(), 11) != all.end());
-  CHECK(peersToDial(Ring(ids), 10, [](PeisId) { return true; }).empty());  // all linked already
+  CHECK(peersToDial(ids, 10, [](PeisId) { return true; }).empty());  // all linked already
 }
 
 TEST_CASE("link policy: what is pruned", "[unit][link-policy]") {
@@ -79,24 +79,22 @@ TEST_CASE("link policy: what is pruned", "[unit][link-policy]") {
   REQUIRE(unwanted);
   const auto [self, peer] = *unwanted;
   const PruneQuestion q{peer, true, true, 5s, true};
-  CHECK(shouldPrune(Ring(ids), self, q));
-  CHECK_FALSE(
-      shouldPrune(Ring(ids), wanted->first, PruneQuestion{wanted->second, true, true, 5s, true}));
-  CHECK_FALSE(
-      shouldPrune(Ring(ids), peer, PruneQuestion{self, true, true, 5s, true}));  // the higher id
+  CHECK(shouldPrune(ids, self, q));
+  CHECK_FALSE(shouldPrune(ids, wanted->first, PruneQuestion{wanted->second, true, true, 5s, true}));
+  CHECK_FALSE(shouldPrune(ids, peer, PruneQuestion{self, true, true, 5s, true}));  // the higher id
   auto young = q;
   young.age = 1s;
-  CHECK_FALSE(shouldPrune(Ring(ids), self, young));
+  CHECK_FALSE(shouldPrune(ids, self, young));
   auto only = q;
   only.alternative = false;  // never cut a PEIS off
-  CHECK_FALSE(shouldPrune(Ring(ids), self, only));
+  CHECK_FALSE(shouldPrune(ids, self, only));
   auto explicitLink = q;
   explicitLink.discovered = false;
-  CHECK_FALSE(shouldPrune(Ring(ids), self, explicitLink));
+  CHECK_FALSE(shouldPrune(ids, self, explicitLink));
   auto unknown = q;
   unknown.knownByBeacon = false;
-  CHECK_FALSE(shouldPrune(Ring(ids), self, unknown));
+  CHECK_FALSE(shouldPrune(ids, self, unknown));
   auto tool = q;
   tool.peerIsTool = true;
-  CHECK_FALSE(shouldPrune(Ring(ids), self, tool));
+  CHECK_FALSE(shouldPrune(ids, self, tool));
 }

@@ -1,8 +1,6 @@
 // Beacon encoding and checked decoding; layout in beacon.h.
 #include "net/beacon.h"
 
-#include <algorithm>
-
 #include "net/wire_format.h"
 
 namespace peis::net {
@@ -20,18 +18,7 @@ std::string encodeBeacon(const Beacon& b) {
   put(static_cast<std::uint32_t>(b.id), 4);
   put(b.incarnation, 8);
   put(b.port, 2);
-  const bool members = !b.members.empty();
-  put((b.wantsAnswer ? 1 : 0) | (b.tool ? 2 : 0) | (b.secured ? 4 : 0) | (members ? 8 : 0), 1);
-  if (!members) return out;
-  const auto count = std::min(b.members.size(), kMaxBeaconMembers);
-  put(count, 1);
-  for (std::size_t i = 0; i < count; ++i) {
-    const auto& m = b.members[i];
-    put(static_cast<std::uint32_t>(m.id), 4);
-    put(m.incarnation, 8);
-    out.append(reinterpret_cast<const char*>(m.address.data()), m.address.size());
-    put(m.port, 2);
-  }
+  put((b.wantsAnswer ? 1 : 0) | (b.tool ? 2 : 0) | (b.secured ? 4 : 0), 1);
   return out;
 }
 
@@ -57,24 +44,10 @@ std::optional<Beacon> decodeBeacon(std::string_view in) {
   b.incarnation = get(8);
   b.port = static_cast<std::uint16_t>(get(2));
   const auto flags = get(1);
-  if (!ok || !isValidPeisId(id) || b.port == 0 || flags > 15 || b.ecology.empty()) {
+  if (!ok || pos != in.size() || !isValidPeisId(id) || b.port == 0 || flags > 7 ||
+      b.ecology.empty()) {
     return std::nullopt;
   }
-  if (flags & 8) {
-    // Members: only on an answer, at least one, each a valid id and port.
-    const auto count = get(1);
-    if (!ok || (flags & 1) || count == 0 || count > kMaxBeaconMembers) return std::nullopt;
-    b.members.resize(count);
-    for (auto& m : b.members) {
-      const auto memberId = static_cast<std::int32_t>(get(4));
-      m.incarnation = get(8);
-      for (auto& byte : m.address) byte = static_cast<std::uint8_t>(get(1));
-      m.port = static_cast<std::uint16_t>(get(2));
-      if (!ok || !isValidPeisId(memberId) || m.port == 0) return std::nullopt;
-      m.id = memberId;
-    }
-  }
-  if (pos != in.size()) return std::nullopt;
   b.id = id;
   b.wantsAnswer = (flags & 1) != 0;
   b.tool = (flags & 2) != 0;

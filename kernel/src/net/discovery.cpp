@@ -22,7 +22,6 @@ namespace {
 constexpr int kMaxBeaconBackoff = 8;      // beacon period at most 8x the configured one
 constexpr std::size_t kBeaconQuorum = 3;  // beacons heard that make a stable PEIS skip its own
 constexpr int kQuietPeriods = 4;          // a PEIS unheard for this many periods is forgotten
-constexpr int kMembersWantedFor = 2;      // periods after start that answers' members are taken
 
 std::vector<asio::ip::address_v4> broadcastAddresses(DiscoveryScope scope) {
   std::vector<asio::ip::address_v4> result{asio::ip::make_address_v4("127.255.255.255")};
@@ -83,7 +82,6 @@ void Discovery::start(std::uint16_t tcpPort) {
   // beacon without pause).
   interval_ = config_.beaconPeriod;
   membershipChanged_ = SteadyClock::now();
-  membersWanted_ = membershipChanged_ + kMembersWantedFor * config_.beaconPeriod;
   beaconLoop();
 }
 
@@ -96,8 +94,6 @@ void Discovery::stop() {
 
 void Discovery::setSelf(PeisId self) {
   self_ = self;
-  ringStale_ = true;
-  membersWanted_ = SteadyClock::now() + kMembersWantedFor * config_.beaconPeriod;
   if (udp_.is_open()) {
     send(udp::endpoint(asio::ip::make_address_v4("127.255.255.255"), config_.port), true);
   }
@@ -110,14 +106,6 @@ std::vector<PeisId> Discovery::sortedIds() const {
   }
   std::sort(ids.begin(), ids.end());
   return ids;
-}
-
-const Ring& Discovery::ring() const {
-  if (ringStale_) {
-    ring_ = Ring(sortedIds());
-    ringStale_ = false;
-  }
-  return ring_;
 }
 
 const Discovery::Peer* Discovery::peer(PeisId id) const {
@@ -148,7 +136,6 @@ void Discovery::beaconLoop() {
     const bool quiet = now - it->second.lastSeen > config_.beaconPeriod * kQuietPeriods;
     if (quiet && !(events_.reachable && events_.reachable(it->first))) {
       const bool tool = it->second.tool;
-      if (!tool) ring_.erase(it->first);
       it = peers_.erase(it);
       if (!tool) membershipChanged(now);
     } else {
@@ -226,72 +213,18 @@ void Discovery::onBeacon(const Beacon& beacon, const udp::endpoint& from) {
   }
   auto [it, isNew] = peers_.try_emplace(beacon.id);
   isNew = isNew || it->second.incarnation != beacon.incarnation;
-  if (it->second.tool) ringStale_ = true;  // a tool's id is off the ring
   it->second = Peer{from.address(), beacon.port, beacon.incarnation, SteadyClock::now()};
-  if (!beacon.members.empty()) learnMembers(beacon);
   if (!isNew) return;
-  ring_.insert(beacon.id);
   membershipChanged(SteadyClock::now());
   // Only a PEIS the newcomer should link with answers at once (its fingers,
-  // and those whose finger it is): N answers to each of N joining PEIS were
-  // most of the beacon traffic of a join storm. Its two neighbours on the
-  // ring (always among those) also list the PEIS they know: the newcomer
-  // knows the whole ecology at once and picks its final fingers, instead of
-  // dialling some from what it knows so far and pruning them again.
-  if (beacon.wantsAnswer && !config_.tool) {
-    const auto& ring = this->ring();
-    if (ring.successor(beacon.id) == self_ || ring.predecessor(beacon.id) == self_) {
-      sendMembers(from, beacon.id);
-    } else if (ring.wants(self_, beacon.id)) {
-      send(from, false);
-    }
+  // and those whose finger it is): the newcomer learns its overlay
+  // neighbours now, the others from their next beacon, which the change
+  // brings within a beacon period. N answers to each of N joining PEIS were
+  // most of the beacon traffic of a join storm.
+  if (beacon.wantsAnswer && !config_.tool && overlayWantsSorted(sortedIds(), self_, beacon.id)) {
+    send(from, false);
   }
   if (events_.onNewPeer) events_.onNewPeer(beacon.id);
-}
-
-void Discovery::sendMembers(const udp::endpoint& to, PeisId newcomer) {
-  // Addresses heard over loopback mean nothing on another host.
-  const bool toLoopback = to.address().is_loopback();
-  Beacon answer{config_.ecology, self_,        incarnation_,   tcpPort_,
-                false,           config_.tool, config_.secured};
-  auto flush = [&] {
-    auto payload = std::make_shared<std::string>(encodeBeacon(answer));
-    udp_.async_send_to(asio::buffer(*payload), to,
-                       [payload](const boost::system::error_code&, std::size_t) {});
-    answer.members.clear();
-  };
-  bool sent = false;
-  for (const auto& [id, peer] : peers_) {
-    if (peer.tool || id == newcomer || !peer.address.is_v4()) continue;
-    if (peer.address.is_loopback() && !toLoopback) continue;
-    answer.members.push_back(
-        BeaconMember{id, peer.incarnation, peer.address.to_v4().to_bytes(), peer.port});
-    if (answer.members.size() == kMaxBeaconMembers) {
-      flush();
-      sent = true;
-    }
-  }
-  if (!answer.members.empty() || !sent) flush();
-}
-
-// The members of an answer: the PEIS its sender knows. Taken only shortly
-// after this PEIS announced itself (they are what a newcomer asked for),
-// and only those this PEIS does not know itself: what it heard first-hand
-// wins.
-void Discovery::learnMembers(const Beacon& beacon) {
-  const auto now = SteadyClock::now();
-  if (beacon.tool || now > membersWanted_) return;
-  PeisId learnt = 0;
-  for (const auto& m : beacon.members) {
-    if (m.id == self_ || m.id == beacon.id || peers_.count(m.id) != 0) continue;
-    if (peers_.size() >= config_.maxPeers) break;
-    peers_.emplace(m.id, Peer{asio::ip::address_v4(m.address), m.port, m.incarnation, now});
-    ring_.insert(m.id);
-    learnt = m.id;
-  }
-  if (learnt == 0) return;
-  membershipChanged(now);
-  if (events_.onNewPeer) events_.onNewPeer(learnt);
 }
 
 // A tool PEIS is remembered (its address, should it be looked up) and
@@ -300,7 +233,6 @@ void Discovery::learnMembers(const Beacon& beacon) {
 void Discovery::onToolBeacon(const Beacon& beacon, const udp::endpoint& from) {
   if (config_.tool) return;
   auto [it, isNew] = peers_.try_emplace(beacon.id);
-  if (!isNew && !it->second.tool) ringStale_ = true;  // it was on the ring
   isNew = isNew || it->second.incarnation != beacon.incarnation;
   it->second = Peer{from.address(), beacon.port, beacon.incarnation, SteadyClock::now(), true};
   if (!isNew || !beacon.wantsAnswer) return;

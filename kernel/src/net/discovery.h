@@ -1,10 +1,8 @@
 // Discovery: the UDP beacons of one PEIS (docs/protocol.md §6). It
 // broadcasts a beacon every beacon period (backing off up to 8x while the
 // PEIS it knows do not change, and skipping its own while it hears enough
-// others), answers newcomers it should link with (their ring neighbours
-// with the PEIS they know, so a newcomer knows the ecology at once), and
-// remembers the PEIS of its ecology it heard (address, TCP port,
-// incarnation) until they go quiet.
+// others), answers newcomers it should link with, and remembers the PEIS of
+// its ecology it heard (address, TCP port, incarnation) until they go quiet.
 // Whom to dial and which links to prune is decided by the Network from what
 // Discovery knows (net/link_policy.h). A tool PEIS (the `peis` command) is
 // heard but left out of the overlay and of the membership: its coming and
@@ -23,7 +21,6 @@
 
 #include "net/beacon.h"
 #include "net/counters.h"
-#include "net/overlay.h"
 
 namespace peis::net {
 
@@ -39,9 +36,6 @@ class Discovery {
     std::chrono::milliseconds beaconPeriod{1000};
     bool tool = false;     // this PEIS is a tool (its beacons say so)
     bool secured = false;  // of a secured ecology (its beacons say so)
-    // PEIS learnt from the members of answers stop here (a forged answer
-    // cannot make this PEIS remember without end).
-    std::size_t maxPeers = 4096;
   };
   struct Peer {
     boost::asio::ip::address address;
@@ -78,9 +72,6 @@ class Discovery {
 
   // The known PEIS but tools, and this one, ascending (the overlay's input).
   std::vector<PeisId> sortedIds() const;
-  // The same on the overlay's ring, kept up to date PEIS by PEIS (built
-  // again only when this PEIS's id or a tool flag changed).
-  const Ring& ring() const;
   const Peer* peer(PeisId id) const;
   bool knows(PeisId id) const { return peers_.count(id) != 0; }
   SteadyClock::time_point membershipChangedAt() const { return membershipChanged_; }
@@ -90,9 +81,6 @@ class Discovery {
   void armBeacon(SteadyClock::time_point at);
   void membershipChanged(SteadyClock::time_point now);
   void send(const boost::asio::ip::udp::endpoint& to, bool wantsAnswer);
-  // An answer to newcomer `newcomer` with the PEIS this one knows.
-  void sendMembers(const boost::asio::ip::udp::endpoint& to, PeisId newcomer);
-  void learnMembers(const Beacon& beacon);
   void receive();
   void onBeacon(const Beacon& beacon, const boost::asio::ip::udp::endpoint& from);
   void onToolBeacon(const Beacon& beacon, const boost::asio::ip::udp::endpoint& from);
@@ -107,15 +95,9 @@ class Discovery {
   bool stopped_ = false;
   boost::asio::ip::udp::socket udp_;
   boost::asio::ip::udp::endpoint from_;
-  // One byte over the largest beacon: a longer datagram does not decode.
-  std::array<char, kMaxBeaconBytes + 1> buffer_{};
-  // Until when answers' members are taken: shortly after this PEIS (or its
-  // new id) announced itself.
-  SteadyClock::time_point membersWanted_{};
+  std::array<char, 512> buffer_{};
   boost::asio::steady_timer timer_;
   std::map<PeisId, Peer> peers_;
-  mutable Ring ring_;
-  mutable bool ringStale_ = true;
   SteadyClock::time_point membershipChanged_;
   std::chrono::milliseconds interval_{0};  // the current beacon period
   SteadyClock::time_point due_;

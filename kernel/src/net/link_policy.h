@@ -8,7 +8,6 @@
 #include <functional>
 #include <vector>
 
-#include "net/overlay.h"
 #include "peis/types.h"
 
 namespace peis::net {
@@ -19,9 +18,9 @@ inline constexpr std::chrono::seconds kLinkGrace{2};
 
 // The overlay peers of `self` that it dials: those with a higher id (of a
 // wanted pair only the lower id dials; with `all`, as a tool does, every
-// one) it is neither linked to nor dialling. `ring`: the known PEIS and
-// `self`.
-std::vector<PeisId> peersToDial(const Ring& ring, PeisId self,
+// one) it is neither linked to nor dialling. `sortedIds`: the known PEIS and
+// `self`, ascending.
+std::vector<PeisId> peersToDial(const std::vector<PeisId>& sortedIds, PeisId self,
                                 const std::function<bool(PeisId)>& linkedOrDialing,
                                 bool all = false);
 
@@ -37,6 +36,6 @@ struct PruneQuestion {
 // peer is no tool, the overlay no longer wants the pair, the link is old
 // enough and the peer stays reachable through another neighbour. Call only once the membership has
 // been stable for kLinkGrace.
-bool shouldPrune(const Ring& ring, PeisId self, const PruneQuestion& question);
+bool shouldPrune(const std::vector<PeisId>& sortedIds, PeisId self, const PruneQuestion& question);
 
 }  // namespace peis::net

@@ -13,7 +13,6 @@
 #include <algorithm>
 #include <boost/asio/connect.hpp>
 #include <boost/asio/ip/tcp.hpp>
-#include <boost/asio/post.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <deque>
 #include <map>
@@ -43,12 +42,7 @@ namespace {
 
 constexpr std::chrono::milliseconds kAdvertDelay{100};  // adverts at most every 100 ms
 constexpr std::chrono::milliseconds kRedialPeriod{1000};
-// Dials wait for the membership to go quiet: 15 ms after a lone change,
-// 100 ms once more PEIS arrive (a burst: dialling in the middle of it links
-// fingers that the next arrivals replace), at most 1 s after the first.
 constexpr std::chrono::milliseconds kDialQuiet{15};
-constexpr std::chrono::milliseconds kDialQuietInBurst{100};
-constexpr int kDialBurst = 3;  // changes before the longer quiet applies
 constexpr std::chrono::milliseconds kDialMaxDelay{1000};
 constexpr std::chrono::milliseconds kRecomputeDelay{20};  // recomputes at most every 20 ms
 constexpr std::chrono::seconds kHoldFor{3};  // how long a frame waits for its source's route
@@ -70,11 +64,11 @@ class Network::Impl final : public LinkHandler {
         incarnation_(incarnation),
         events_(std::move(events)),
         table_(tableConfig(config_, self, incarnation)),
-        discovery_(io,
-                   Discovery::Config{config_.ecology, config_.discovery, config_.discoveryPort,
-                                     config_.beaconPeriod, config_.tool,
-                                     config_.credentials != nullptr, config_.maxRoutes},
-                   counters_, self, incarnation, discoveryEvents()),
+        discovery_(
+            io,
+            Discovery::Config{config_.ecology, config_.discovery, config_.discoveryPort,
+                              config_.beaconPeriod, config_.tool, config_.credentials != nullptr},
+            counters_, self, incarnation, discoveryEvents()),
         acceptor_(io),
         pingTimer_(io),
         redialTimer_(io),
@@ -212,7 +206,6 @@ class Network::Impl final : public LinkHandler {
   // Evaluates dials once beacons have been quiet for a moment (bounded), so
   // PEIS starting together do not link to every target they pass through.
   void scheduleDials();
-  void armDials(SteadyClock::time_point at);
   void pruneLinks();
   // Runs pruneLinks once the membership and the links have been settled for
   // kLinkGrace (not only at the next beacon, which may be 8 s away).
@@ -234,9 +227,6 @@ class Network::Impl final : public LinkHandler {
   // spoofing checks of docs/protocol.md §14).
   bool sourceMayArriveOver(const Link& link, const wire::Envelope& envelope,
                            SteadyClock::time_point now) const;
-  // Whether a frame that fails them may still come that way once the routes
-  // agree (it is held, not dropped).
-  bool mayConverge(const Link& link, const wire::Envelope& envelope) const;
 
   asio::io_context& io_;
   NetworkConfig config_;
@@ -253,9 +243,7 @@ class Network::Impl final : public LinkHandler {
   bool pruneArmed_ = false;
   SteadyClock::time_point hostBusyUntil_;  // see pingLoop
   bool dialsPending_ = false;
-  bool dialTimerArmed_ = false;
-  int dialsAsked_ = 0;  // changes since the dials were last evaluated
-  SteadyClock::time_point dialsFirstAsked_, dialsLastAsked_;
+  SteadyClock::time_point dialsFirstAsked_;
   Throttle recomputeThrottle_{io_}, advertThrottle_{io_};
   std::vector<std::shared_ptr<Link>> links_;
   std::vector<std::weak_ptr<Link>> explicitLinks_;
@@ -1049,8 +1037,6 @@ void Network::Impl::onRoutes(Link& link, wire::Routes& routes) {
   }
   // Adverts arrive in bursts: recompute once per burst.
   if (table_.hasWork()) scheduleRecompute();
-  // A longer offer made shorter may be what held frames wait for.
-  if (!held_.empty()) retryHeld();
 }
 
 void Network::Impl::onLeave(Link& link, const wire::Leave& leave) {
@@ -1120,27 +1106,12 @@ void Network::Impl::throttle(Throttle& t, std::chrono::milliseconds interval,
                              void (Impl::*work)()) {
   if (t.scheduled || stopped_) return;
   t.scheduled = true;
-  auto run = [this, &t, work] {
+  t.timer.expires_at(std::max(SteadyClock::now(), t.last + interval));
+  t.timer.async_wait([this, &t, work](const boost::system::error_code& ec) {
     t.scheduled = false;
-    if (stopped_) return;
+    if (ec || stopped_) return;
     t.last = SteadyClock::now();
     (this->*work)();
-  };
-  const auto due = t.last + interval;
-  if (due <= SteadyClock::now()) {
-    // Due now: posted. A timer due now cost a system call (the reactor
-    // re-arms its timerfd for the earliest timer) per run, thousands in a
-    // join.
-    asio::post(io_, std::move(run));
-    return;
-  }
-  t.timer.expires_at(due);
-  t.timer.async_wait([&t, run = std::move(run)](const boost::system::error_code& ec) {
-    if (ec) {
-      t.scheduled = false;
-      return;
-    }
-    run();
   });
 }
 
@@ -1196,11 +1167,7 @@ void Network::Impl::onRouted(Link& link, std::string_view frame) {
       inbox_.push_back(std::move(message));
     }
     const auto now = SteadyClock::now();
-    // While routes converge (a join), a source's route to us can be longer
-    // than ours to it, and its frames come from a neighbour offering only
-    // a longer route: they wait until the routes agree, not dropped as
-    // spoofed (which cost the value and, after a few, the relay's link).
-    if (!sourceMayArriveOver(link, envelope, now) && !mayConverge(link, envelope)) {
+    if (!sourceMayArriveOver(link, envelope, now)) {
       ++counters_.malformedFrames;
       log::warn(self_, "dropped a frame from " + link.remote_ + " with spoofed source " +
                            std::to_string(envelope.source));
@@ -1211,10 +1178,10 @@ void Network::Impl::onRouted(Link& link, std::string_view frame) {
       }
       return;
     }
-    if (!table_.contains(envelope.source) || !sourceMayArriveOver(link, envelope, now)) {
+    if (!table_.contains(envelope.source)) {
       // A PEIS we have no route to yet: the adverts naming it travel one hop
       // per advert delay, its first messages can be faster. Hold them
-      // briefly, within bounds (Limits::maxHeldBytes); so are those above.
+      // briefly, within bounds (Limits::maxHeldBytes).
       if (frame.empty()) {  // a placed frame
         placedBytes = wire::encodeFrame(inbox_.back()).substr(wire::kFrameHeaderBytes);
         frame = placedBytes;
@@ -1269,13 +1236,6 @@ bool Network::Impl::sourceMayArriveOver(const Link& link, const wire::Envelope& 
   return envelope.destination != self_ && table_.advertises(link.peer_.id, envelope.source);
 }
 
-// A frame for this PEIS from a PEIS further away (not linked), relayed by a
-// neighbour that offers a route to it: a way it may come once routes agree.
-bool Network::Impl::mayConverge(const Link& link, const wire::Envelope& envelope) const {
-  return envelope.destination == self_ && envelope.source != link.peer_.id &&
-         findLink(envelope.source) == nullptr && table_.advertises(link.peer_.id, envelope.source);
-}
-
 void Network::Impl::deliverOrForward(std::string_view frame, wire::RoutedMessage&& message,
                                      PeisId from, const std::string& tag) {
   if (message.envelope.destination == self_) {
@@ -1327,18 +1287,17 @@ void Network::Impl::retryHeld() {
   held_.clear();
   heldBytes_ = 0;
   for (auto& h : held) {
-    const auto& envelope = h.message.envelope;
-    const auto* from = findLink(h.from);
-    const bool young = now - h.arrived <= kHoldFor;
-    const bool routed = table_.contains(envelope.source);
-    // Checked again now that the source has a route: the PEIS it came from
-    // must be one it may come from, or, for a while, may come from once the
-    // routes agree.
-    if (routed && from && sourceMayArriveOver(*from, envelope, now)) {
-      deliverOrForward(h.frame, std::move(h.message), h.from, h.tag);
-    } else if (routed && !(young && from && mayConverge(*from, envelope))) {
-      ++counters_.malformedFrames;
-    } else if (!young) {
+    const auto source = h.message.envelope.source;
+    if (table_.contains(source)) {
+      // Checked again now that the source has a route: the PEIS it came
+      // from must be one it may come from.
+      const auto* from = findLink(h.from);
+      if (from && sourceMayArriveOver(*from, h.message.envelope, now)) {
+        deliverOrForward(h.frame, std::move(h.message), h.from, h.tag);
+      } else {
+        ++counters_.malformedFrames;
+      }
+    } else if (now - h.arrived > kHoldFor) {
       ++counters_.unroutable;
     } else {
       heldBytes_ += h.frame.size();
@@ -1439,40 +1398,27 @@ void Network::Impl::scheduleDials() {
   if (!dialsPending_) {
     dialsPending_ = true;
     dialsFirstAsked_ = now;
-    dialsAsked_ = 0;
   }
-  ++dialsAsked_;
-  dialsLastAsked_ = now;
-  // The timer is armed once and, when it fires early, re-armed for what is
-  // left: one timer operation per quiet period, not one per beacon.
-  if (!dialTimerArmed_) armDials(now + kDialQuiet);
-}
-
-void Network::Impl::armDials(SteadyClock::time_point at) {
-  dialTimerArmed_ = true;
-  dialTimer_.expires_at(at);
+  const auto due = std::min(now + kDialQuiet, dialsFirstAsked_ + kDialMaxDelay);
+  dialTimer_.expires_at(due);
   dialTimer_.async_wait([this](const boost::system::error_code& ec) {
-    dialTimerArmed_ = false;
-    if (ec || stopped_ || !dialsPending_) return;
-    const auto quiet = dialsAsked_ >= kDialBurst ? kDialQuietInBurst : kDialQuiet;
-    const auto due = std::min(dialsLastAsked_ + quiet, dialsFirstAsked_ + kDialMaxDelay);
-    if (SteadyClock::now() < due) return armDials(due);
+    if (ec || stopped_) return;
     dialsPending_ = false;
     evaluateDials();
   });
 }
 
 void Network::Impl::evaluateDials() {
-  const auto& ring = discovery_.ring();
+  const auto ids = discovery_.sortedIds();
   // A tool dials every overlay peer it has (no other PEIS dials a tool).
   const auto targets = peersToDial(
-      ring, self_, [this](PeisId id) { return findLink(id) != nullptr || dialing_.count(id) != 0; },
+      ids, self_, [this](PeisId id) { return findLink(id) != nullptr || dialing_.count(id) != 0; },
       config_.tool);
   for (const PeisId target : targets) {
     const auto* peer = discovery_.peer(target);
     if (!peer) continue;
     log::debug(self_, "dialling PEIS " + std::to_string(target) + " (overlay of " +
-                          std::to_string(ring.size()) + ")");
+                          std::to_string(ids.size()) + ")");
     dialing_.insert(target);
     auto socket = std::make_shared<tcp::socket>(io_);
     socket->async_connect(tcp::endpoint(peer->address, peer->port),
@@ -1524,7 +1470,7 @@ void Network::Impl::pruneLinks() {
   // Only once the membership has settled, so both ends agree on the overlay;
   // a tool, short-lived, keeps the few links it has.
   if (config_.tool || now - discovery_.membershipChangedAt() < kLinkGrace) return;
-  const auto& ring = discovery_.ring();
+  const auto ids = discovery_.sortedIds();
   auto links = links_;
   for (const auto& link : links) {
     if (!link->established_) continue;
@@ -1535,7 +1481,7 @@ void Network::Impl::pruneLinks() {
                                  now - link->establishedAt_,
                                  table_.hasAlternative(peer),
                                  (link->peer_.capabilities & wire::kCapabilityTool) != 0};
-    if (shouldPrune(ring, self_, question)) link->close("not needed by the overlay");
+    if (shouldPrune(ids, self_, question)) link->close("not needed by the overlay");
   }
 }
 

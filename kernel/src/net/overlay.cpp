@@ -1,48 +1,28 @@
-// Ring positions and fingers; see overlay.h.
+// Finger computation; see overlay.h.
 #include "net/overlay.h"
 
 #include <algorithm>
 #include <array>
+#include <cstdint>
 
 namespace peis::net {
 
-namespace {
-
-constexpr std::uint64_t kRing = 1ull << 31;
-
-std::uint64_t distance(std::uint64_t from, std::uint64_t to) { return (to + kRing - from) % kRing; }
-
-}  // namespace
-
-// Multiplying by an odd number and xor-shifting right are each invertible
-// modulo 2^31, so no two ids share a position; two rounds scatter runs of
-// consecutive ids over the whole ring.
-std::uint32_t ringPosition(PeisId id) {
-  std::uint64_t x = static_cast<std::uint32_t>(id) & (kRing - 1);
-  x = (x * 0x9E3779B1ull) & (kRing - 1);
-  x ^= x >> 15;
-  x = (x * 0x85EBCA77ull) & (kRing - 1);
-  x ^= x >> 13;
-  return static_cast<std::uint32_t>(x);
-}
-
 std::vector<PeisId> fingers(const std::vector<PeisId>& ids, PeisId a) {
+  constexpr std::uint64_t kSpace = 1ull << 31;
   std::array<std::uint64_t, 32> best;
-  best.fill(kRing);
-  std::array<PeisId, 32> who{};
-  const std::uint64_t from = ringPosition(a);
+  best.fill(kSpace);
   for (const PeisId x : ids) {
     if (x == a) continue;
-    const auto d = distance(from, ringPosition(x));
+    const auto d =
+        (static_cast<std::uint64_t>(x) + kSpace - static_cast<std::uint64_t>(a)) % kSpace;
     const auto k = static_cast<std::size_t>(63 - __builtin_clzll(d));
-    if (d < best[k]) {
-      best[k] = d;
-      who[k] = x;
-    }
+    best[k] = std::min(best[k], d);
   }
   std::vector<PeisId> result;
-  for (std::size_t k = 0; k < best.size(); ++k) {
-    if (best[k] < kRing) result.push_back(who[k]);
+  for (const auto d : best) {
+    if (d < kSpace) {
+      result.push_back(static_cast<PeisId>((static_cast<std::uint64_t>(a) + d) % kSpace));
+    }
   }
   return result;
 }
@@ -54,82 +34,46 @@ bool overlayWants(const std::vector<PeisId>& ids, PeisId a, PeisId b) {
   return std::find(fb.begin(), fb.end(), a) != fb.end();
 }
 
-Ring::Ring(const std::vector<PeisId>& ids) {
-  ring_.reserve(ids.size());
-  for (const PeisId id : ids) ring_.emplace_back(ringPosition(id), id);
-  std::sort(ring_.begin(), ring_.end());
-  ring_.erase(std::unique(ring_.begin(), ring_.end()), ring_.end());
+namespace {
+
+constexpr std::uint64_t kRing = 1ull << 31;
+
+std::uint64_t distance(PeisId from, PeisId to) {
+  return (static_cast<std::uint64_t>(to) + kRing - static_cast<std::uint64_t>(from)) % kRing;
 }
 
-void Ring::insert(PeisId id) {
-  const std::pair<std::uint32_t, PeisId> entry(ringPosition(id), id);
-  const auto at = std::lower_bound(ring_.begin(), ring_.end(), entry);
-  if (at == ring_.end() || *at != entry) ring_.insert(at, entry);
-}
-
-void Ring::erase(PeisId id) {
-  const std::pair<std::uint32_t, PeisId> entry(ringPosition(id), id);
-  const auto at = std::lower_bound(ring_.begin(), ring_.end(), entry);
-  if (at != ring_.end() && *at == entry) ring_.erase(at);
-}
-
-bool Ring::anyIn(std::uint64_t from, std::uint64_t to) const {
-  auto at = [&](std::uint64_t position) {
-    return std::lower_bound(
-        ring_.begin(), ring_.end(),
-        std::pair<std::uint32_t, PeisId>(static_cast<std::uint32_t>(position), 0));
+// Whether some id lies in the ring interval [from, to) (from != to).
+bool anyIn(const std::vector<PeisId>& sorted, std::uint64_t from, std::uint64_t to) {
+  auto at = [&](std::uint64_t v) {
+    return std::lower_bound(sorted.begin(), sorted.end(), static_cast<PeisId>(v));
   };
   if (from < to) return at(from) != at(to);
-  return at(from) != ring_.end() || at(to) != ring_.begin();  // wraps past 2^31
+  return at(from) != sorted.end() || at(to) != sorted.begin();  // wraps past 2^31
 }
 
-// b is a's finger: no PEIS lies after a+2^k and before b, k being the power
-// of two of their distance (those nearer than 2^k are in other intervals).
-bool Ring::isFinger(PeisId a, PeisId b) const {
-  const std::uint64_t pa = ringPosition(a), pb = ringPosition(b);
-  const auto d = distance(pa, pb);
+// b is a's finger: no id lies after a+2^k and before b, k being the power of
+// two of their distance (the ids nearer than 2^k are in other intervals).
+bool isFinger(const std::vector<PeisId>& sorted, PeisId a, PeisId b) {
+  const auto d = distance(a, b);
   if (d == 0) return false;
   const auto k = 63 - __builtin_clzll(d);
-  const auto from = (pa + (1ull << k)) % kRing;
-  return from == pb || !anyIn(from, pb);
+  const auto from = (static_cast<std::uint64_t>(a) + (1ull << k)) % kRing;
+  return from == static_cast<std::uint64_t>(b) ||
+         !anyIn(sorted, from, static_cast<std::uint64_t>(b));
 }
 
-bool Ring::wants(PeisId a, PeisId b) const { return isFinger(a, b) || isFinger(b, a); }
+}  // namespace
 
-std::vector<PeisId> Ring::peers(PeisId a) const {
+bool overlayWantsSorted(const std::vector<PeisId>& sortedIds, PeisId a, PeisId b) {
+  return isFinger(sortedIds, a, b) || isFinger(sortedIds, b, a);
+}
+
+std::vector<PeisId> overlayPeers(const std::vector<PeisId>& sortedIds, PeisId a) {
   std::vector<PeisId> result;
-  for (const auto& [position, b] : ring_) {
-    if (b != a && wants(a, b)) result.push_back(b);
+  for (const PeisId b : sortedIds) {
+    if (b != a && overlayWantsSorted(sortedIds, a, b)) result.push_back(b);
   }
-  std::sort(result.begin(), result.end());
   return result;
-}
-
-PeisId Ring::successor(PeisId a) const {
-  const auto position = ringPosition(a);
-  auto it = std::upper_bound(ring_.begin(), ring_.end(),
-                             std::pair<std::uint32_t, PeisId>(position, kMaxPeisId));
-  if (it == ring_.end()) it = ring_.begin();  // wraps
-  if (it == ring_.end() || it->second == a) return 0;
-  return it->second;
-}
-
-PeisId Ring::predecessor(PeisId a) const {
-  const auto position = ringPosition(a);
-  auto it =
-      std::lower_bound(ring_.begin(), ring_.end(), std::pair<std::uint32_t, PeisId>(position, 0));
-  if (it == ring_.begin()) it = ring_.end();  // wraps
-  if (ring_.empty()) return 0;
-  --it;
-  return it->second == a ? 0 : it->second;
-}
-
-bool overlayWantsSorted(const std::vector<PeisId>& ids, PeisId a, PeisId b) {
-  return Ring(ids).wants(a, b);
-}
-
-std::vector<PeisId> overlayPeers(const std::vector<PeisId>& ids, PeisId a) {
-  return Ring(ids).peers(a);
 }
 
 }  // namespace peis::net
