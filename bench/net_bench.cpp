@@ -216,6 +216,11 @@ Percentiles tcpRoundTrip(std::size_t bytes, int count) {
 
 Percentiles peisRoundTrip(std::size_t bytes, int count, const std::string& ecology,
                           const std::string& credentials = "") {
+  // Declared before the kernel, so a late pong's callback (on the kernel
+  // thread, until the kernel is destroyed) never finds them gone.
+  std::mutex mu;
+  std::condition_variable cv;
+  std::string lastPong;
   peis::Kernel kernel(hostOptions(ecology, 1, false, credentials));
   Child echo([&] {
     auto args = std::vector<std::string>{
@@ -224,9 +229,6 @@ Percentiles peisRoundTrip(std::size_t bytes, int count, const std::string& ecolo
     if (!credentials.empty()) args.insert(args.end(), {"--credentials", credentials});
     return args;
   }());
-  std::mutex mu;
-  std::condition_variable cv;
-  std::string lastPong;
   kernel.onChange(peis::Pattern::exact(2, "pong"), [&](const peis::Tuple& t) {
     {
       std::lock_guard lock(mu);

@@ -1214,6 +1214,12 @@ void Network::Impl::onRouted(Link& link, std::string_view frame) {
     }
     return;  // stays in the inbox
   }
+  // A placed frame was for this PEIS when its head came; if this PEIS took
+  // another id meanwhile, it has no bytes to forward: dropped, counted.
+  if (frame.empty()) {
+    ++counters_.unroutable;
+    return drop();
+  }
   forwardFrame(frame, envelope, tag);
   drop();
 }

@@ -291,7 +291,8 @@ void readTupleInto(Reader& r, std::size_t maxDataBytes, Tuple& t) {
   }
   if (t.data.capacity() < size && size <= kSpareDataBufferBytes) {
     auto& spare = spareDataBuffers();
-    if (!spare.empty()) {
+    // A spare too small would be reallocated by the copy below: kept.
+    if (!spare.empty() && spare.back().capacity() >= size) {
       t.data.swap(spare.back());
       spare.pop_back();
     }
