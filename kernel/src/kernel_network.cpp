@@ -80,6 +80,10 @@ void Kernel::Impl::startNetwork() {  // kernel thread
 
 void Kernel::Impl::stopNetwork(std::function<void()> closed) {  // kernel thread
   leaseTimer.cancel();
+  // What the outbox holds ready (a stream's updates waiting for the flush
+  // timer, say) goes to the links before the Leave: a PEIS's last writes
+  // reach their subscribers.
+  if (network) flush();
   {
     MutexLock lock(mu);
     networkStopped = true;
