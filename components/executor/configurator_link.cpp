@@ -62,18 +62,30 @@ void StaticConfigurator::post(const std::vector<std::string>& needs, Done done) 
   }
 }
 
-void StaticConfigurator::withdraw(const std::vector<std::string>& needs) {
+void StaticConfigurator::withdraw(const std::vector<std::string>& needs, Done done) {
+  // `done` once every emptied meta tuple is acknowledged (a remote write is
+  // sent again until it is, within the kernel's write timeout).
+  auto left = std::make_shared<std::size_t>(1);
+  auto finishOne = [left, done = std::move(done)](const std::optional<std::string>& error) {
+    if (--*left == 0 && done) done(error);
+  };
   for (const auto& need : needs) {
     const auto parts = parseNeed(need);
     if (!parts) continue;
     try {
       WriteOptions options;
       options.mimetype = kMetaMimetype;
-      kernel_.setAsync(kernel_.resolveOwner(parts->consumer), parts->key, "", options);
+      ++*left;
+      kernel_.setAsync(
+          kernel_.resolveOwner(parts->consumer), parts->key, "", options,
+          [finishOne](const std::optional<Error>& error, std::uint64_t) {
+            finishOne(error ? std::optional<std::string>(error->what()) : std::nullopt);
+          });
     } catch (const Error&) {
-      // The consumer is gone: nothing to withdraw.
+      --*left;  // The consumer is gone: nothing to withdraw.
     }
   }
+  finishOne(std::nullopt);
 }
 
 GoalTupleConfigurator::GoalTupleConfigurator(Kernel& kernel, std::string goalKey,
@@ -171,10 +183,11 @@ void GoalTupleConfigurator::post(const std::vector<std::string>& needs, Done don
   kernel_.post([watch] { watch->check(); });
 }
 
-void GoalTupleConfigurator::withdraw(const std::vector<std::string>& needs) {
+void GoalTupleConfigurator::withdraw(const std::vector<std::string>& needs, Done done) {
   for (const auto& need : needs)
     posted_.erase(std::remove(posted_.begin(), posted_.end(), need), posted_.end());
-  publish();
+  publish();  // an own tuple: the configurator follows it (or sees this PEIS leave)
+  if (done) done(std::nullopt);
 }
 
 }  // namespace peis::executor

@@ -1,6 +1,8 @@
 // How the executor gets the configuration a step needs, behind one small
 // interface: `post` asks for the needs of a step and reports through `done`
-// (no error = deployed); `withdraw` gives them back.
+// (no error = deployed); `withdraw` gives them back and reports through
+// `done` once every consumer has acknowledged (or is gone), so a program can
+// leave without taking its withdrawal with it.
 //
 // StaticConfigurator is the hand-written configuration of the tiny paper's
 // experiment ("the ecology configuration has been hand-coded"): a table
@@ -27,7 +29,7 @@ class ConfiguratorLink {
   virtual ~ConfiguratorLink() = default;
   // Runs on the kernel thread; `done` is called there, once.
   virtual void post(const std::vector<std::string>& needs, Done done) = 0;
-  virtual void withdraw(const std::vector<std::string>& needs) = 0;
+  virtual void withdraw(const std::vector<std::string>& needs, Done done) = 0;
 };
 
 class StaticConfigurator : public ConfiguratorLink {
@@ -36,7 +38,7 @@ class StaticConfigurator : public ConfiguratorLink {
   StaticConfigurator(Kernel& kernel, std::vector<StaticLink> links,
                      std::chrono::milliseconds peerWait = std::chrono::seconds(10));
   void post(const std::vector<std::string>& needs, Done done) override;
-  void withdraw(const std::vector<std::string>& needs) override;
+  void withdraw(const std::vector<std::string>& needs, Done done) override;
 
  private:
   Kernel& kernel_;
@@ -62,7 +64,7 @@ class GoalTupleConfigurator : public ConfiguratorLink {
   GoalTupleConfigurator(Kernel& kernel, std::string goalKey,
                         std::chrono::milliseconds deadline = std::chrono::seconds(30));
   void post(const std::vector<std::string>& needs, Done done) override;
-  void withdraw(const std::vector<std::string>& needs) override;
+  void withdraw(const std::vector<std::string>& needs, Done done) override;
 
  private:
   std::uint64_t publish();

@@ -116,6 +116,8 @@ struct Shell {
   std::unique_ptr<peis::executor::ConfiguratorLink> configurator;
   std::map<peis::PeisId, peis::CallbackHandle> watched;  // ExecStatus callbacks by PEIS
   int exitCode = -1;
+  int withdrawalsUnacknowledged = 0;
+  std::string quitReason;  // set when the program leaves after the plan
   // With --domain and --problem: the task being run (its goal literals).
   std::optional<peis::meta::task::Domain> domain;
   std::optional<peis::meta::task::Problem> problem;
@@ -187,7 +189,11 @@ struct Shell {
         break;
       case Command::Kind::WithdrawNeeds:
         log("withdrawing " + join(c.needs));
-        configurator->withdraw(c.needs);
+        ++withdrawalsUnacknowledged;
+        configurator->withdraw(c.needs, [this](const std::optional<std::string>& error) {
+          if (error) log("withdrawal not acknowledged: " + *error);
+          if (--withdrawalsUnacknowledged == 0 && !quitReason.empty()) kernel.quit(quitReason);
+        });
         break;
       case Command::Kind::SendGoal: {
         // A PEIS that has not joined yet gets a while (a plan may start first).
@@ -248,7 +254,17 @@ struct Shell {
         log("plan " + c.text);
         if (settings.exitWhenDone) {
           exitCode = runner.phase() == Phase::Succeeded ? 0 : 1;
-          kernel.quit("plan " + c.text);
+          // Leaves once the consumers acknowledged the withdrawals, so none
+          // is lost with this process (a remote write is retried meanwhile);
+          // a consumer that never answers holds it up at most 10 s.
+          quitReason = "plan " + c.text;
+          if (withdrawalsUnacknowledged == 0) {
+            kernel.quit(quitReason);
+          } else {
+            log("waiting for " + std::to_string(withdrawalsUnacknowledged) +
+                " withdrawal(s) to be acknowledged");
+            kernel.after(std::chrono::seconds(10), [this] { kernel.quit(quitReason); });
+          }
         }
         break;
     }
@@ -313,10 +329,17 @@ int main(int argc, char** argv) {
   }
   peis::Component component(kernel, "executor",
                             peis::Descriptor::fromYaml(kExecutorDescriptor, "executor.yaml"));
-  Shell shell{
-      kernel,       settings,     peis::executor::PlanRunner(settings.actions, settings.replans),
-      nullptr,      {},           -1,
-      std::nullopt, std::nullopt, {}};
+  Shell shell{kernel,
+              settings,
+              peis::executor::PlanRunner(settings.actions, settings.replans),
+              nullptr,
+              {},
+              -1,
+              0,
+              {},
+              std::nullopt,
+              std::nullopt,
+              {}};
   try {
     if (!settings.domainPath.empty())
       shell.domain = peis::meta::task::Domain::fromFile(settings.domainPath);
