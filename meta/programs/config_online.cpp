@@ -101,11 +101,15 @@ struct Session {
       std::this_thread::sleep_for(milliseconds(5));
     introspector->waitSettled(left());
     live = introspector->snapshot();
+    // A PEIS the kernel knows may still be missing from the model until its
+    // tuples arrived: wait for the model, not only the name.
     for (const auto& name : named) {
-      if (live.findByName(name) || Clock::now() >= deadline) continue;
-      if (!kernel->waitForPeer(name, left())) continue;  // planning names it unknown
-      introspector->waitSettled(left());
-      live = introspector->snapshot();
+      while (!live.findByName(name) && Clock::now() < deadline) {
+        if (!kernel->waitForPeer(name, left())) break;  // planning names it unknown
+        introspector->waitSettled(left());
+        live = introspector->snapshot();
+        if (!live.findByName(name)) std::this_thread::sleep_for(milliseconds(10));
+      }
     }
   }
 

@@ -279,7 +279,9 @@ TEST_CASE("two deployers applying at once never leave a mixture", "[fault]") {
     for (const char* avoid : {"avoid:pb", "avoid:pa"}) {
       std::vector<std::string> args = {PEIS_CONFIG_PATH, "apply"};
       args.insert(args.end(), goals.begin(), goals.end());
-      args.insert(args.end(), {avoid, "--peis-ecology", eco.ecology});
+      // A generous --wait: on a loaded machine the tool PEIS may hear of
+      // the avoided PEIS late (it costs nothing once everything is known).
+      args.insert(args.end(), {avoid, "--wait", "20", "--peis-ecology", eco.ecology});
       applies.push_back(std::make_unique<peis::test::Process>(args, eco.environment()));
     }
     for (auto& p : applies) {
