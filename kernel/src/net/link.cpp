@@ -348,8 +348,9 @@ void Link::read() {
   if (closed_) return;
   if (cipher_) {
     makeRecordRoom();
-    return socket_.async_read_some(
-        asio::buffer(records_.get() + recordsEnd_, recordsCapacity_ - recordsEnd_),
+    return socket_.receiveDrained(
+        std::array<asio::mutable_buffer, 1>{
+            asio::buffer(records_.get() + recordsEnd_, recordsCapacity_ - recordsEnd_)},
         [self = shared_from_this()](const boost::system::error_code& ec, std::size_t n) {
           if (ec) return self->close(ec == asio::error::eof ? "closed by peer" : ec.message());
           self->lastHeard_ = SteadyClock::now();
@@ -374,7 +375,7 @@ void Link::read() {
   if (placedLeft_ > 0) {
     // The rest of a placed frame into its place, what follows into in_.
     asked_ += placedLeft_;
-    return socket_.async_read_some(
+    return socket_.receiveDrained(
         std::array<asio::mutable_buffer, 2>{asio::buffer(placedAt_, placedLeft_),
                                             asio::buffer(in_.get() + inEnd_, room)},
         handler);
@@ -388,7 +389,7 @@ void Link::read() {
     if (reserved_) {
       const auto after = makeReadRoom(expectedHead_ + readRoom_) - expectedHead_;
       asked_ = expectedHead_ + expectedPlaced_ + after;
-      return socket_.async_read_some(
+      return socket_.receiveDrained(
           std::array<asio::mutable_buffer, 3>{asio::buffer(in_.get(), expectedHead_),
                                               asio::buffer(reserved_, expectedPlaced_),
                                               asio::buffer(in_.get() + expectedHead_, after)},
@@ -396,7 +397,8 @@ void Link::read() {
     }
     expectedHead_ = 0;
   }
-  socket_.async_read_some(asio::buffer(in_.get() + inEnd_, room), handler);
+  socket_.receiveDrained(
+      std::array<asio::mutable_buffer, 1>{asio::buffer(in_.get() + inEnd_, room)}, handler);
 }
 
 // One read of what has arrived, from this thread, never waiting: the rest

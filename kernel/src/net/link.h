@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "adaptive_mutex.h"
+#include "net/link_socket.h"
 #include "net/wire.h"
 
 namespace peis::security {
@@ -245,7 +246,7 @@ class Link : public std::enable_shared_from_this<Link> {
   LinkHandler& handler_;
   Counters& counters_;
   const std::size_t maxFrameBytes_;
-  boost::asio::ip::tcp::socket socket_;
+  LinkSocket socket_;
   bool closed_ = false;
   std::unique_ptr<char[]> in_;
   std::size_t inCapacity_ = 0;
