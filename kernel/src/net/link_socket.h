@@ -47,9 +47,12 @@ class LinkSocket : public boost::asio::ip::tcp::socket {
 
   // Reads into `buffers` (at most 3) what has arrived, waiting for it if
   // nothing has; `handler(error_code, bytes)` runs on the socket's
-  // io_context as async_read_some's does (never inside this call).
+  // io_context as async_read_some's does (never inside this call). With
+  // `drainedWhenShort`, the next read waits for epoll without trying first
+  // if this one takes fewer bytes than `buffers` hold.
   template <typename Handler, std::size_t N>
-  void receiveDrained(const std::array<boost::asio::mutable_buffer, N>& buffers, Handler handler);
+  void receiveDrained(const std::array<boost::asio::mutable_buffer, N>& buffers,
+                      bool drainedWhenShort, Handler handler);
 
  private:
 #if PEIS_LINK_DRAINED_READ
@@ -70,6 +73,7 @@ class LinkSocket::ReceiveOp : public boost::asio::detail::reactor_op {
 
   std::array<iovec, 3> parts_{};
   std::size_t count_ = 0, room_ = 0;
+  bool drainedWhenShort_ = false;
 
  private:
   static status perform(reactor_op* base) {
@@ -93,7 +97,7 @@ class LinkSocket::ReceiveOp : public boost::asio::detail::reactor_op {
     }
     // Fewer bytes than room: the socket is empty now; the next read waits
     // for epoll without trying first.
-    return op->bytes_transferred_ < op->room_ ? done_and_exhausted : done;
+    return op->drainedWhenShort_ && op->bytes_transferred_ < op->room_ ? done_and_exhausted : done;
   }
 
   // Runs the handler (owner set) or only frees the op (the io_context is
@@ -114,7 +118,7 @@ class LinkSocket::ReceiveOp : public boost::asio::detail::reactor_op {
 
 template <typename Handler, std::size_t N>
 void LinkSocket::receiveDrained(const std::array<boost::asio::mutable_buffer, N>& buffers,
-                                Handler handler) {
+                                bool drainedWhenShort, Handler handler) {
   static_assert(N >= 1 && N <= 3);
   namespace detail = boost::asio::detail;
   auto& impl = impl_.get_implementation();
@@ -124,6 +128,7 @@ void LinkSocket::receiveDrained(const std::array<boost::asio::mutable_buffer, N>
     op->room_ += buffers[i].size();
   }
   op->count_ = N;
+  op->drainedWhenShort_ = drainedWhenShort;
   auto& reactor = boost::asio::use_service<detail::reactor>(get_executor().context());
   if (impl.socket_ == detail::invalid_socket) {
     op->ec_ = boost::asio::error::bad_descriptor;
@@ -139,7 +144,7 @@ void LinkSocket::receiveDrained(const std::array<boost::asio::mutable_buffer, N>
 #else
 
 template <typename Handler, std::size_t N>
-void LinkSocket::receiveDrained(const std::array<boost::asio::mutable_buffer, N>& buffers,
+void LinkSocket::receiveDrained(const std::array<boost::asio::mutable_buffer, N>& buffers, bool,
                                 Handler handler) {
   async_read_some(buffers, std::move(handler));
 }
