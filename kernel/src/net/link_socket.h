@@ -14,8 +14,8 @@
 // bytes than it had room for. Waiting by async_wait instead costs an
 // epoll_ctl per wait (and a wake-up for the socket's writable edge), which
 // is why the try is skipped this way (docs/architecture.md, "Reads").
-// Uses Asio's reactor directly; with another reactor than epoll (or
-// another Boost) it is async_read_some.
+// Uses Asio's reactor directly; with another reactor than epoll (or a
+// Boost outside 1.74-1.83) it is async_read_some.
 #pragma once
 
 #include <sys/socket.h>
@@ -28,8 +28,10 @@
 #include <cstddef>
 #include <utility>
 
+// The reactor's start_op and post_immediate_completion as Boost 1.74 has
+// them (Debian 12's); Boost 1.84 changed them.
 #if defined(BOOST_ASIO_HAS_EPOLL) && !defined(BOOST_ASIO_HAS_IO_URING_AS_DEFAULT) && \
-    BOOST_VERSION >= 107000 && BOOST_VERSION < 109000
+    BOOST_VERSION >= 107400 && BOOST_VERSION < 108400
 #define PEIS_LINK_DRAINED_READ 1
 #include <boost/asio/detail/epoll_reactor.hpp>
 #include <boost/asio/detail/reactor_op.hpp>
