@@ -35,6 +35,7 @@
 #define PEIS_LINK_DRAINED_READ 1
 #include <boost/asio/detail/epoll_reactor.hpp>
 #include <boost/asio/detail/reactor_op.hpp>
+#include <boost/asio/detail/recycling_allocator.hpp>
 #include <boost/asio/detail/socket_ops.hpp>
 #else
 #define PEIS_LINK_DRAINED_READ 0
@@ -44,8 +45,7 @@ namespace peis::net {
 
 class LinkSocket : public boost::asio::ip::tcp::socket {
  public:
-  explicit LinkSocket(boost::asio::ip::tcp::socket&& socket)
-      : boost::asio::ip::tcp::socket(std::move(socket)) {}
+  explicit LinkSocket(boost::asio::ip::tcp::socket&& socket);
 
   // Reads into `buffers` (at most 3) what has arrived, waiting for it if
   // nothing has; `handler(error_code, bytes)` runs on the socket's
@@ -60,10 +60,18 @@ class LinkSocket : public boost::asio::ip::tcp::socket {
 #if PEIS_LINK_DRAINED_READ
   template <typename Handler>
   class ReceiveOp;
+  template <typename Handler>
+  using OpAllocator = boost::asio::detail::recycling_allocator<ReceiveOp<Handler>>;
+  // Looked up once: the service registry's lookup takes a lock.
+  boost::asio::detail::reactor* reactor_;
 #endif
 };
 
 #if PEIS_LINK_DRAINED_READ
+
+inline LinkSocket::LinkSocket(boost::asio::ip::tcp::socket&& socket)
+    : boost::asio::ip::tcp::socket(std::move(socket)),
+      reactor_(&boost::asio::use_service<boost::asio::detail::reactor>(get_executor().context())) {}
 
 template <typename Handler>
 class LinkSocket::ReceiveOp : public boost::asio::detail::reactor_op {
@@ -110,7 +118,8 @@ class LinkSocket::ReceiveOp : public boost::asio::detail::reactor_op {
     Handler handler(std::move(op->handler_));
     const auto ec = op->ec_;
     const auto bytes = op->bytes_transferred_;
-    delete op;
+    op->~ReceiveOp();
+    OpAllocator<Handler>().deallocate(op, 1);  // (Asio's own ops recycle their memory so)
     if (owner) handler(ec, bytes);
   }
 
@@ -124,14 +133,15 @@ void LinkSocket::receiveDrained(const std::array<boost::asio::mutable_buffer, N>
   static_assert(N >= 1 && N <= 3);
   namespace detail = boost::asio::detail;
   auto& impl = impl_.get_implementation();
-  auto* op = new ReceiveOp<Handler>(impl.socket_, std::move(handler));
+  auto* op =
+      new (OpAllocator<Handler>().allocate(1)) ReceiveOp<Handler>(impl.socket_, std::move(handler));
   for (std::size_t i = 0; i < N; ++i) {
     op->parts_[i] = {buffers[i].data(), buffers[i].size()};
     op->room_ += buffers[i].size();
   }
   op->count_ = N;
   op->drainedWhenShort_ = drainedWhenShort;
-  auto& reactor = boost::asio::use_service<detail::reactor>(get_executor().context());
+  auto& reactor = *reactor_;
   if (impl.socket_ == detail::invalid_socket) {
     op->ec_ = boost::asio::error::bad_descriptor;
     return reactor.post_immediate_completion(op, false);
@@ -144,6 +154,9 @@ void LinkSocket::receiveDrained(const std::array<boost::asio::mutable_buffer, N>
 }
 
 #else
+
+inline LinkSocket::LinkSocket(boost::asio::ip::tcp::socket&& socket)
+    : boost::asio::ip::tcp::socket(std::move(socket)) {}
 
 template <typename Handler, std::size_t N>
 void LinkSocket::receiveDrained(const std::array<boost::asio::mutable_buffer, N>& buffers, bool,
