@@ -23,6 +23,7 @@
 #include <cstring>
 #include <filesystem>
 #include <functional>
+#include <future>
 #include <map>
 #include <mutex>
 #include <string>
@@ -264,6 +265,64 @@ Percentiles peisRoundTrip(std::size_t bytes, int count, const std::string& ecolo
   echo.stop();
   if (micros.empty()) return {-1, -1, -1};
   return percentiles(micros);
+}
+
+// The same round trip as an application written in callbacks measures it
+// (as the echo answers): the next ping is published from the pong's
+// callback, on the kernel thread that read the pong, and no other thread is
+// woken per round. Beside peisRoundTrip, it shows what waking the waiting
+// application thread costs (docs/performance.md, "The round trip at 64 KiB").
+Percentiles peisCallbackRoundTrip(std::size_t bytes, int count, const std::string& ecology) {
+  std::mutex mu;
+  std::condition_variable cv;
+  bool finished = false;
+  std::vector<double> micros;
+  micros.reserve(static_cast<std::size_t>(count));
+  int round = 0;
+  std::string expect;
+  Clock::time_point start;
+  peis::Kernel kernel(hostOptions(ecology, 1, false));
+  Child echo({"--role", "peis-echo", "--ecology", ecology, "--id", "2", "--peer", "1", "--connect",
+              std::to_string(kernel.port())});
+  // Made before the clock starts, as in peisRoundTrip.
+  auto ping = [&] {
+    std::string payload(bytes, 'x');
+    char tag[17];
+    std::snprintf(tag, sizeof tag, "%016d", round);
+    std::memcpy(payload.data(), tag, std::min<std::size_t>(16, bytes));
+    expect = payload.substr(0, 16);
+    start = Clock::now();
+    kernel.publish("ping", std::move(payload));
+  };
+  kernel.onChange(peis::Pattern::exact(2, "pong"), [&](const peis::Tuple& t) {
+    if (round > count + 50 || t.data.compare(0, 16, expect) != 0) return;
+    const auto end = Clock::now();
+    if (round >= 50)
+      micros.push_back(std::chrono::duration<double, std::micro>(end - start).count());
+    if (++round < count + 50) return ping();
+    std::lock_guard lock(mu);
+    finished = true;
+    cv.notify_one();
+  });
+  kernel.subscribe(peis::Pattern::exact(2, "pong"));
+  waitFor([&] { return kernel.get(peis::special::kSubscribers)->data == "2"; }, 10s);
+  kernel.post(ping);
+  {
+    std::unique_lock lock(mu);
+    cv.wait_for(lock, 5s + count * 10ms, [&] { return finished; });
+  }
+  // The measurements are the kernel thread's until it is stopped.
+  std::vector<double> taken;
+  std::promise<void> stopped;
+  kernel.post([&] {
+    round = count + 51;
+    taken = std::move(micros);
+    stopped.set_value();
+  });
+  stopped.get_future().wait();
+  echo.stop();
+  if (taken.size() < static_cast<std::size_t>(count)) return {-1, -1, -1};
+  return percentiles(taken);
 }
 
 struct Throughput {
@@ -657,6 +716,7 @@ int runAll(const std::string& what, const std::string& sizes) {
 // (bench/run_peer_comparison.sh), which interleaves the systems and takes
 // medians over repetitions:
 //   tcp-rtt SIZE, peis-rtt[-secured] SIZE -> p50 p90 p99 (us); PEIS_BENCH_ROUNDS=N for N rounds
+//   peis-rtt-callback SIZE        -> the same, answered in the callback (peisCallbackRoundTrip)
 //   peis-stream[-secured] SIZE    -> delivered/s delivered written coalesced
 // (`-secured`: in a secured ecology of fresh credentials)
 //   scale N                       -> seconds-to-all idle-cpu-% rss pss private (KiB)
@@ -681,6 +741,13 @@ int runOnce(const std::string& kind, const std::string& argument) {
       if (secured) std::filesystem::remove_all(dir);
     }
   } removeKeys{dir, secured};
+  if (kind == "peis-rtt-callback") {
+    const char* rounds = std::getenv("PEIS_BENCH_ROUNDS");
+    const int count = rounds ? std::atoi(rounds) : value >= 65536 ? 500 : 2000;
+    const auto p = peisCallbackRoundTrip(value, count, ecology + "-crtt");
+    std::printf("%.2f %.2f %.2f\n", p.p50, p.p90, p.p99);
+    return p.p50 > 0 ? 0 : 1;
+  }
   if (kind == "tcp-rtt" || kind == "peis-rtt" || kind == "peis-rtt-secured") {
     // PEIS_BENCH_ROUNDS: another number of round trips (CPU time per round
     // trip is the difference of two runs of different lengths).
@@ -714,7 +781,9 @@ int main(int argc, char** argv) {
   if (argc > 1 && (std::strcmp(argv[1], "--help") == 0 || std::strcmp(argv[1], "-h") == 0)) {
     std::printf(
         "Usage: peis-bench-net [all|rtt|throughput|security|join|scale] [SIZES]\n"
-        "       peis-bench-net once tcp-rtt|peis-rtt[-secured]|peis-stream[-secured] SIZE\n"
+        "       peis-bench-net once "
+        "tcp-rtt|peis-rtt[-secured]|peis-rtt-callback|peis-stream[-secured] "
+        "SIZE\n"
         "       peis-bench-net once scale N\n"
         "SIZES (e.g. 16,1024) limits the one-writer throughput runs to those sizes,\n"
         "and for scale (e.g. 200) the numbers of processes.\n"

@@ -348,17 +348,21 @@ void Link::read() {
   if (closed_) return;
   if (cipher_) {
     makeRecordRoom();
-    return socket_.async_read_some(
-        asio::buffer(records_.get() + recordsEnd_, recordsCapacity_ - recordsEnd_),
+    return socket_.receiveDrained(
+        std::array<asio::mutable_buffer, 1>{
+            asio::buffer(records_.get() + recordsEnd_, recordsCapacity_ - recordsEnd_)},
+        drainedWhenShort_,
         [self = shared_from_this()](const boost::system::error_code& ec, std::size_t n) {
           if (ec) return self->close(ec == asio::error::eof ? "closed by peer" : ec.message());
           self->lastHeard_ = SteadyClock::now();
           if (n == self->recordsCapacity_ - self->recordsEnd_ && self->established_) {
             self->readRoom_ = std::min(2 * self->readRoom_, kMaxReadRoom);
           }
+          const bool filled = n == self->recordsCapacity_ - self->recordsEnd_;
           self->recordsEnd_ += n;
           if (!self->openRecords()) return;
           self->parse();
+          self->noteReadShape(filled);
           self->handler_.onReadDone(*self);
           self->read();
         });
@@ -374,10 +378,10 @@ void Link::read() {
   if (placedLeft_ > 0) {
     // The rest of a placed frame into its place, what follows into in_.
     asked_ += placedLeft_;
-    return socket_.async_read_some(
+    return socket_.receiveDrained(
         std::array<asio::mutable_buffer, 2>{asio::buffer(placedAt_, placedLeft_),
                                             asio::buffer(in_.get() + inEnd_, room)},
-        handler);
+        drainedWhenShort_, handler);
   }
   if (expectedHead_ > 0 && inEnd_ == 0 && skip_ == 0) {
     // The next frame is expected to be like the last placed one: its head
@@ -388,15 +392,17 @@ void Link::read() {
     if (reserved_) {
       const auto after = makeReadRoom(expectedHead_ + readRoom_) - expectedHead_;
       asked_ = expectedHead_ + expectedPlaced_ + after;
-      return socket_.async_read_some(
+      return socket_.receiveDrained(
           std::array<asio::mutable_buffer, 3>{asio::buffer(in_.get(), expectedHead_),
                                               asio::buffer(reserved_, expectedPlaced_),
                                               asio::buffer(in_.get() + expectedHead_, after)},
-          handler);
+          drainedWhenShort_, handler);
     }
     expectedHead_ = 0;
   }
-  socket_.async_read_some(asio::buffer(in_.get() + inEnd_, room), handler);
+  socket_.receiveDrained(
+      std::array<asio::mutable_buffer, 1>{asio::buffer(in_.get() + inEnd_, room)},
+      drainedWhenShort_, handler);
 }
 
 // One read of what has arrived, from this thread, never waiting: the rest
@@ -491,6 +497,7 @@ void Link::receivedAsExpected(std::size_t n) {
 // again (the head of the next big frame, with little of its data), unless
 // the next frame is expected to be like this one.
 void Link::completePlaced() {
+  ++framesThisRead_;
   placedAt_ = nullptr;
   readRoom_ = kFirstReadRoom;
   handler_.onPlacedFrame(*this);
@@ -507,9 +514,16 @@ void Link::afterRead(std::size_t n) {
       parse();
     }
   }
+  noteReadShape(filled_);
   handler_.onReadDone(*this);
   shrinkIfIdle(n);
   read();
+}
+
+void Link::noteReadShape(bool filled) {
+  drainedWhenShort_ = !filled && framesThisRead_ <= 1 && inPos_ == inEnd_ && placedLeft_ == 0 &&
+                      skip_ == 0 && recordsPos_ == recordsEnd_;
+  framesThisRead_ = 0;
 }
 
 void Link::shrinkIfIdle(std::size_t readBytes) {
@@ -695,6 +709,7 @@ void Link::parse() {
     const auto frame = std::string_view(in_.get() + inPos_ + wire::kFrameHeaderBytes, length);
     inPos_ += wire::kFrameHeaderBytes + length;
     wholeFrame_ = false;
+    ++framesThisRead_;
     handler_.onFrame(*this, frame);
     if (securing_) {  // what follows the peer's Hello is records
       securing_ = false;

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "adaptive_mutex.h"
+#include "net/link_socket.h"
 #include "net/wire.h"
 
 namespace peis::security {
@@ -230,6 +231,7 @@ class Link : public std::enable_shared_from_this<Link> {
   void receivedAsExpected(std::size_t n);
   void completePlaced();
   void afterRead(std::size_t n);
+  void noteReadShape(bool filled);
   // Whether the frame at inPos_ (of `length` bytes) may be placed.
   bool mayPlace(std::size_t length) const {
     return established_ && !cipher_ && !wholeFrame_ && length >= kPlacedFrameBytes;
@@ -245,7 +247,7 @@ class Link : public std::enable_shared_from_this<Link> {
   LinkHandler& handler_;
   Counters& counters_;
   const std::size_t maxFrameBytes_;
-  boost::asio::ip::tcp::socket socket_;
+  LinkSocket socket_;
   bool closed_ = false;
   std::unique_ptr<char[]> in_;
   std::size_t inCapacity_ = 0;
@@ -272,9 +274,15 @@ class Link : public std::enable_shared_from_this<Link> {
   // for it by the read under way.
   std::size_t expectedHead_ = 0, expectedPlaced_ = 0;
   char* reserved_ = nullptr;
-  bool filled_ = false;    // the last read filled all the room it had
-  std::size_t asked_ = 0;  // the room of the read under way
-  int smallReads_ = 0;     // reads in a row smaller than the first read room
+  bool filled_ = false;     // the last read filled all the room it had
+  std::size_t asked_ = 0;   // the room of the read under way
+  int smallReads_ = 0;      // reads in a row smaller than the first read room
+  int framesThisRead_ = 0;  // frames handed over from the read under way
+  // The last read held at most one frame, whole, and did not fill its room
+  // (a request, an answer, a value now and then; not a stream): a read as
+  // short as it leaves the socket empty, and the read after it waits for
+  // epoll without trying the socket first (net/link_socket.h).
+  bool drainedWhenShort_ = false;
   // --- The write side: the kernel thread and direct senders -----------------------
   mutable AdaptiveMutex writeMu_;
   bool writeClosed_ GUARDED_BY(writeMu_) = false;      // the socket is closed (or closing)
