@@ -225,9 +225,11 @@ class Link : public std::enable_shared_from_this<Link> {
   void write() REQUIRES(writeMu_);
   void startWrite() REQUIRES(writeMu_);
   // A secured link's frames, sealed at once: written, or queued as records.
-  void sendSealed(std::string_view bytes, std::string_view data) REQUIRES(writeMu_);
+  void sendSealed(std::string_view bytes, const std::shared_ptr<const Tuple>& tail)
+      REQUIRES(writeMu_);
   void writeSealed(std::string_view bytes, std::string_view data) REQUIRES(writeMu_);
-  void queueSealed(std::string_view bytes, std::string_view data) REQUIRES(writeMu_);
+  void queueSealed(std::string_view bytes, const std::shared_ptr<const Tuple>& tail)
+      REQUIRES(writeMu_);
   void sealQueued(std::string_view plain) REQUIRES(writeMu_);
   Chunk& newRecordBlock(std::size_t bytes) REQUIRES(writeMu_);
   void sealChunks() REQUIRES(writeMu_);
