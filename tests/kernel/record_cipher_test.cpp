@@ -125,6 +125,22 @@ TEST_CASE("security: record cipher round trips of every size, both suites", "[un
   }
 }
 
+// A link seals queued frames into blocks of records, cutting the
+// plaintext where a block is full: what plainFitting() says fits does.
+TEST_CASE("security: the plaintext that fits in a number of record bytes", "[unit]") {
+  constexpr auto kWhole = RecordCipher::kMaxPlainBytes + RecordCipher::kOverheadBytes;
+  for (std::size_t room : {0u, 1u, 20u, 21u, 1024u, 16403u, 16404u, 16405u, 16425u, 65536u,
+                           3 * 16404u + 20u, 3 * 16404u + 21u}) {
+    INFO(room << " bytes of records");
+    const auto plain = RecordCipher::plainFitting(room);
+    if (plain > 0) CHECK(RecordCipher::sealedBytes(plain) <= room);
+    CHECK(RecordCipher::sealedBytes(plain + 1) > room);  // and no more
+  }
+  CHECK(RecordCipher::plainFitting(kWhole) == RecordCipher::kMaxPlainBytes);
+  CHECK(RecordCipher::plainFitting(65536) ==
+        3 * RecordCipher::kMaxPlainBytes + 65536 - 3 * kWhole - RecordCipher::kOverheadBytes);
+}
+
 // The known answers were made with libsodium's crypto_aead_aes256gcm and
 // crypto_aead_chacha20poly1305_ietf (an independent implementation), the
 // nonce and associated data of §15.5 built by hand; the records of the

@@ -38,6 +38,9 @@ constexpr std::size_t kFirstChunkBytes = 4 * 1024;  // a new write chunk's first
 constexpr int kIdleReads = 8;
 constexpr std::size_t kGatherChunks = 16;  // chunks per gathered write, at most
 constexpr std::size_t kGatherBytes = 1024 * 1024;
+// The end of a block too small for this many bytes of records (or for all
+// that is being sealed) is left empty: no record of a few bytes.
+constexpr std::size_t kLeastRecordRoom = 1024;
 
 std::string endpointText(const tcp::endpoint& e) {
   return e.address().to_string() + ":" + std::to_string(e.port());
@@ -81,9 +84,10 @@ void Link::secure(std::unique_ptr<security::RecordCipher> cipher) {
 void Link::sendFrame(std::string_view frame) {
   MutexLock lock(writeMu_);
   if (writeClosed_) return;
+  ++counters_.framesOut;
+  if (cipher_) return sendSealed(frame, nullptr);
   appendable(frame.size()).append(frame);
   queued_ += frame.size();
-  ++counters_.framesOut;
   write();
 }
 
@@ -92,6 +96,14 @@ void Link::sendUpdate(const wire::Envelope& envelope, std::uint64_t incarnation,
   MutexLock lock(writeMu_);
   if (writeClosed_) return;
   const auto bytes = wire::tupleUpdateFrameBytes(*tuple);
+  ++counters_.framesOut;
+  if (cipher_) {  // encoded here, sealed from here (a big tuple's data from the tuple)
+    const bool big = tuple->data.size() >= wire::kZeroCopyDataBytes;
+    plain_.clear();
+    wire::encodeTupleUpdate(envelope, incarnation, *tuple, plain_,
+                            big ? wire::TupleData::Omit : wire::TupleData::Include);
+    return sendSealed(plain_, big ? tuple : nullptr);
+  }
   if (tuple->data.size() >= wire::kZeroCopyDataBytes) {
     auto& chunk = chunks_.emplace_back();
     wire::encodeTupleUpdate(envelope, incarnation, *tuple, chunk.bytes, wire::TupleData::Omit);
@@ -100,15 +112,15 @@ void Link::sendUpdate(const wire::Envelope& envelope, std::uint64_t incarnation,
     wire::encodeTupleUpdate(envelope, incarnation, *tuple, appendable(bytes));
   }
   queued_ += bytes;
-  ++counters_.framesOut;
   write();
 }
 
 void Link::sendBytes(std::string_view bytes, std::uint32_t frames) {
   MutexLock lock(writeMu_);
   if (writeClosed_ || bytes.empty()) return;
-  queued_ += bytes.size();
   counters_.framesOut += frames;
+  if (cipher_) return sendSealed(bytes, nullptr);
+  queued_ += bytes.size();
   appendable(bytes.size()).append(bytes);
   write();
 }
@@ -129,7 +141,11 @@ std::size_t Link::sendNow(std::string_view bytes, const std::shared_ptr<const Tu
   counters_.directFramesOut.fetch_add(frames, std::memory_order_relaxed);
   writtenSinceIdle_ += size;
   std::size_t sent = 0;
-  if (!writing_ && chunks_.empty() && cipher_) return sendSealedNow(bytes, data);
+  if (cipher_) {
+    if (!writing_ && chunks_.empty()) return sendSealedNow(bytes, data);
+    queueSealed(bytes, tail);  // behind what is queued or being written
+    return 0;
+  }
   if (!writing_ && chunks_.empty()) {
     // Idle: straight to the socket, from this thread (no hand-off to the
     // kernel thread, no wake-up of it). Never blocks.
@@ -177,10 +193,10 @@ std::size_t Link::sendSealedNow(std::string_view bytes, std::string_view data) {
   // An error is left to the kernel thread's write, which closes the link.
   const std::size_t sent = n > 0 ? static_cast<std::size_t>(n) : 0;
   if (sent == sealedBytes_) return bytes.size() + data.size();
-  auto& rest = chunks_.emplace_back();
-  rest.bytes.assign(sealed_.data() + sent, sealedBytes_ - sent);
-  rest.sealed = true;
-  queued_ += rest.bytes.size();
+  auto& rest = newRecordBlock(sealedBytes_ - sent);
+  std::memcpy(rest.records.get(), sealed_.data() + sent, sealedBytes_ - sent);
+  rest.recordBytes = sealedBytes_ - sent;
+  queued_ += rest.recordBytes;
   writing_ = true;
   writingSince_ = lastSent_;
   boost::asio::post(socket_.get_executor(), [self = shared_from_this()] { self->resumeWrite(); });
@@ -233,7 +249,7 @@ bool Link::bytesWaiting() {
 // full or ends in a tuple's data. A chunk starts small (an idle link's
 // pings cost little memory) and doubles while a stream fills it.
 std::string& Link::appendable(std::size_t bytes) {
-  if (chunks_.empty() || chunks_.back().tail || chunks_.back().sealed ||
+  if (chunks_.empty() || chunks_.back().tail || chunks_.back().records ||
       chunks_.back().bytes.size() >= kWriteChunk) {
     chunks_.emplace_back().bytes = std::move(spareChunk_);
     spareChunk_ = std::string();
@@ -247,10 +263,17 @@ std::string& Link::appendable(std::size_t bytes) {
 }
 
 // Keeps the memory of one written chunk for the next (a stream then
-// allocates no write buffers); a huge one is let go.
+// allocates no write buffers), and of a few record blocks; a huge one is
+// let go.
 void Link::keepSpareChunk() {
   for (auto& chunk : outChunks_) {
+    if (chunk.recordRoom == kRecordBlockBytes && spareRecords_.size() < kSpareRecordBlocks) {
+      spareRecords_.push_back(std::move(chunk.records));
+    }
+  }
+  for (auto& chunk : outChunks_) {
     if (spareChunk_.capacity() >= kWriteChunk) return;
+    if (chunk.recordRoom > 0) continue;  // records: no frames' memory
     if (chunk.bytes.capacity() > 2 * kWriteChunk) continue;
     if (idleWrites_ && chunk.bytes.capacity() > kFirstChunkBytes) continue;
     chunk.bytes.clear();
@@ -282,6 +305,92 @@ void Link::write() {
       if (chunk.tail) outBuffers_.emplace_back(asio::buffer(chunk.tail->data));
     }
   }
+  startWrite();
+}
+
+// A secured link: frames given to the kernel thread (a flush's batch of
+// an outbox entry, a frame, a tuple update) are sealed from where they are
+// straight into records, not first copied into a chunk to be sealed from
+// there when written: one pass over the bytes fewer (a 1 KiB stream's
+// writer spent about 0.13 µs an update on that copy). Idle, the records
+// are written at once (writeSealed); else they wait, sealed, behind what
+// is queued (queueSealed). Either way they are the next ones in order.
+// `tail`: a big tuple whose data ends the frame `bytes` begin.
+void Link::sendSealed(std::string_view bytes, const std::shared_ptr<const Tuple>& tail) {
+  if (!writing_ && chunks_.empty()) {
+    return writeSealed(bytes, tail ? std::string_view(tail->data) : std::string_view());
+  }
+  queueSealed(bytes, tail);
+  write();
+}
+
+// Seals `bytes` into record blocks at the end of the queue. A big tuple's
+// data waits by reference instead, as on an open link (no copy of it
+// queued), and is sealed when written (sealChunks), with the frames
+// queued after it: records sealed now must not overtake those sealed
+// later. So do frames queued before the records were on (only a link's
+// first frames can be).
+void Link::queueSealed(std::string_view bytes, const std::shared_ptr<const Tuple>& tail) {
+  if (tail || (!chunks_.empty() && !chunks_.back().records)) {
+    appendable(bytes.size()).append(bytes);
+    if (tail) chunks_.back().tail = tail;
+    queued_ += bytes.size() + (tail ? tail->data.size() : 0);
+    return;
+  }
+  sealQueued(bytes);
+}
+
+void Link::sealQueued(std::string_view plain) {
+  using security::RecordCipher;
+  while (!plain.empty()) {
+    auto* chunk = chunks_.empty() || !chunks_.back().records ? nullptr : &chunks_.back();
+    const auto room = chunk ? chunk->recordRoom - chunk->recordBytes : 0;
+    if (room < std::min(kLeastRecordRoom, RecordCipher::sealedBytes(plain.size()))) {
+      chunk = &newRecordBlock(kRecordBlockBytes);
+    }
+    const auto n =
+        std::min(plain.size(), RecordCipher::plainFitting(chunk->recordRoom - chunk->recordBytes));
+    const auto sealed =
+        cipher_->seal(plain.substr(0, n), chunk->records.get() + chunk->recordBytes);
+    chunk->recordBytes += sealed;
+    queued_ += sealed;
+    plain.remove_prefix(n);
+  }
+}
+
+// A new chunk at the end of the queue for `bytes` of records: a block (a
+// spare one if there is), or bigger if they need it.
+Link::Chunk& Link::newRecordBlock(std::size_t bytes) {
+  auto& chunk = chunks_.emplace_back();
+  chunk.recordRoom = std::max(bytes, kRecordBlockBytes);
+  if (chunk.recordRoom == kRecordBlockBytes && !spareRecords_.empty()) {
+    chunk.records = std::move(spareRecords_.back());
+    spareRecords_.pop_back();
+  } else {
+    // Not value-initialised: only the sealing writes its bytes.
+    chunk.records.reset(new char[chunk.recordRoom]);
+  }
+  return chunk;
+}
+
+// A secured link with nothing queued nor being written: the records go
+// out at once, from sealed_ (free: no write is under way).
+void Link::writeSealed(std::string_view bytes, std::string_view data) {
+  using security::RecordCipher;
+  sealRoom(RecordCipher::sealedBytes(bytes.size()) +
+           (data.empty() ? 0 : RecordCipher::sealedBytes(data.size())));
+  sealedBytes_ = cipher_->seal(bytes, sealed_.data());
+  if (!data.empty()) sealedBytes_ += cipher_->seal(data, sealed_.data() + sealedBytes_);
+  inFlight_ = bytes.size() + data.size();
+  writtenSinceIdle_ += inFlight_;
+  outBuffers_.clear();
+  outBuffers_.emplace_back(asio::buffer(sealed_.data(), sealedBytes_));
+  startWrite();
+}
+
+// Writes outBuffers_ (the chunks of outChunks_, or the records in sealed_);
+// when done, the next queued chunks.
+void Link::startWrite() {
   writing_ = true;
   writingSince_ = lastSent_ = SteadyClock::now();  // what is queued goes out now
   asio::async_write(socket_, outBuffers_,
@@ -307,30 +416,31 @@ void Link::write() {
 }
 
 // A secured link writes the chunks as records (the link-level cipher
-// layer, security/record_cipher.h), each piece sealed from where it is
-// (a chunk's frames, a big tuple's data) straight into the records.
+// layer, security/record_cipher.h): record blocks as they are, frames
+// queued before the records were on sealed now, each piece from where it
+// is (a chunk's frames, a big tuple's data) straight into sealed_.
 void Link::sealChunks() {
   using security::RecordCipher;
   std::size_t room = 0;
   for (const auto& chunk : outChunks_) {
-    room += chunk.sealed ? chunk.bytes.size() : RecordCipher::sealedBytes(chunk.bytes.size());
+    if (chunk.records) continue;
+    room += RecordCipher::sealedBytes(chunk.bytes.size());
     if (chunk.tail) room += RecordCipher::sealedBytes(chunk.tail->data.size());
   }
-  sealRoom(room);
+  if (room > 0) sealRoom(room);
   sealedBytes_ = 0;
   for (const auto& chunk : outChunks_) {
-    char* at = sealed_.data() + sealedBytes_;
-    if (chunk.sealed) {
-      std::memcpy(at, chunk.bytes.data(), chunk.bytes.size());
-      sealedBytes_ += chunk.bytes.size();
+    if (chunk.records) {
+      outBuffers_.emplace_back(asio::buffer(chunk.records.get(), chunk.recordBytes));
       continue;
     }
-    if (!chunk.bytes.empty()) sealedBytes_ += cipher_->seal(chunk.bytes, at);
+    const auto from = sealedBytes_;
+    if (!chunk.bytes.empty()) sealedBytes_ += cipher_->seal(chunk.bytes, sealed_.data() + from);
     if (chunk.tail && !chunk.tail->data.empty()) {
       sealedBytes_ += cipher_->seal(chunk.tail->data, sealed_.data() + sealedBytes_);
     }
+    outBuffers_.emplace_back(asio::buffer(sealed_.data() + from, sealedBytes_ - from));
   }
-  outBuffers_.emplace_back(asio::buffer(sealed_.data(), sealedBytes_));
 }
 
 // Room for `bytes` of records in sealed_, which only grows (its bytes are

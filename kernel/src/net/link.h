@@ -162,7 +162,7 @@ class Link : public std::enable_shared_from_this<Link> {
   // link's is small: shrinkIfIdle).
   std::size_t bufferBytes() const {
     MutexLock lock(writeMu_);
-    return inCapacity_ + spareChunk_.capacity();
+    return inCapacity_ + spareChunk_.capacity() + spareRecords_.size() * kRecordBlockBytes;
   }
   // How long the write under way has been waiting for the peer to take it
   // (zero when none is).
@@ -203,19 +203,36 @@ class Link : public std::enable_shared_from_this<Link> {
   std::unique_ptr<LinkSecurity> security_;
 
  private:
+  // A secured link's records sealed as they are queued wait in blocks of
+  // this size (a few whole records each). The blocks of one gathered write
+  // (1 MiB) are kept for the next when written: a stream then allocates and
+  // faults in none (the records' buffer of a write used to keep as much).
+  static constexpr std::size_t kRecordBlockBytes = 64 * 1024;
+  static constexpr std::size_t kSpareRecordBlocks = 16;
   // Frames waiting to be written: bytes, then (when set) a tuple's data,
   // which is the end of the frame those bytes begin.
   struct Chunk {
     std::string bytes;
     std::shared_ptr<const Tuple> tail;
-    // A secured link's records already sealed (the rest of a direct send
-    // the socket took only part of): written as they are.
-    bool sealed = false;
-    std::size_t size() const { return bytes.size() + (tail ? tail->data.size() : 0); }
+    // A secured link's records, sealed as they were queued: its first
+    // recordBytes of recordRoom, written as they are (null: `bytes` and
+    // `tail` are frames, sealed when written).
+    std::unique_ptr<char[]> records;
+    std::size_t recordBytes = 0, recordRoom = 0;
+    std::size_t size() const { return bytes.size() + recordBytes + (tail ? tail->data.size() : 0); }
   };
   std::string& appendable(std::size_t bytes) REQUIRES(writeMu_);
   void keepSpareChunk() REQUIRES(writeMu_);
   void write() REQUIRES(writeMu_);
+  void startWrite() REQUIRES(writeMu_);
+  // A secured link's frames, sealed at once: written, or queued as records.
+  void sendSealed(std::string_view bytes, const std::shared_ptr<const Tuple>& tail)
+      REQUIRES(writeMu_);
+  void writeSealed(std::string_view bytes, std::string_view data) REQUIRES(writeMu_);
+  void queueSealed(std::string_view bytes, const std::shared_ptr<const Tuple>& tail)
+      REQUIRES(writeMu_);
+  void sealQueued(std::string_view plain) REQUIRES(writeMu_);
+  Chunk& newRecordBlock(std::size_t bytes) REQUIRES(writeMu_);
   void sealChunks() REQUIRES(writeMu_);
   void sealRoom(std::size_t bytes) REQUIRES(writeMu_);
   // sendNow on an idle secured link: seals and writes at once.
@@ -288,6 +305,7 @@ class Link : public std::enable_shared_from_this<Link> {
   bool writeClosed_ GUARDED_BY(writeMu_) = false;      // the socket is closed (or closing)
   std::vector<Chunk> outChunks_ GUARDED_BY(writeMu_);  // being written
   std::string spareChunk_ GUARDED_BY(writeMu_);        // a written chunk's memory, for the next
+  std::vector<std::unique_ptr<char[]>> spareRecords_ GUARDED_BY(writeMu_);  // written record blocks
   // The link is idle (shrinkIfIdle): a written chunk bigger than the first
   // size is freed, not kept, until a chunk grows again.
   bool idleWrites_ GUARDED_BY(writeMu_) = false;
@@ -305,6 +323,7 @@ class Link : public std::enable_shared_from_this<Link> {
   // sealedBytes_ (its size is only the room it has).
   std::string sealed_ GUARDED_BY(writeMu_);
   std::size_t sealedBytes_ GUARDED_BY(writeMu_) = 0;
+  std::string plain_ GUARDED_BY(writeMu_);  // a tuple update encoded to be sealed (writeSealed)
 };
 
 }  // namespace peis::net

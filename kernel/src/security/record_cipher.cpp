@@ -61,6 +61,13 @@ std::size_t RecordCipher::sealedBytes(std::size_t plainBytes) {
   return plainBytes + records * kOverheadBytes;
 }
 
+std::size_t RecordCipher::plainFitting(std::size_t recordBytes) {
+  constexpr auto kWhole = kMaxPlainBytes + kOverheadBytes;
+  const auto rest = recordBytes % kWhole;
+  return recordBytes / kWhole * kMaxPlainBytes +
+         (rest > kOverheadBytes ? rest - kOverheadBytes : 0);
+}
+
 void RecordCipher::seal(std::string_view plain, std::string& out) {
   const auto at = out.size();
   out.resize(at + sealedBytes(plain.size()));

@@ -55,6 +55,8 @@ class RecordCipher {
                                     AeadImplementation aes = AeadImplementation::Aes256Gcm);
   // The size of the records that seal `plainBytes`.
   static std::size_t sealedBytes(std::size_t plainBytes);
+  // The most plaintext whose records fit in `recordBytes` (0: none).
+  static std::size_t plainFitting(std::size_t recordBytes);
 
   // Seals `plain` (cut into records of at most kMaxPlainBytes) and appends
   // the records to `out`; the plaintext is read where it is (one pass).
