@@ -342,10 +342,19 @@ class Runner {
     return std::nullopt;
   }
 
+  // Whether the success condition of that name held (an empty name: yes).
+  bool conditionHeld(const std::string& name) {
+    if (name.empty()) return true;
+    std::lock_guard lock(mu_);
+    for (const auto& s : tracker_.states())
+      if (s.condition->name == name) return s.held;
+    return false;
+  }
+
   void faults(double now) {
     for (std::size_t i = 0; i < faults_.size(); ++i) {
       const Fault& f = faults_[i];
-      if (faultsDone_[i] || now < f.at) continue;
+      if (faultsDone_[i] || now < f.at || !conditionHeld(f.after)) continue;
       faultsDone_[i] = true;
       inject(f, now);
     }

@@ -71,7 +71,11 @@ struct Fault {
   FaultKind kind = FaultKind::Kill;
   std::string peis;                // the scenario PEIS name it hits
   std::optional<double> duration;  // `for`: Stop, Cut, Freeze end after it (Kill: never)
-  std::string describe() const;    // "stop camera-living-1 at 5 for 8"
+  // `after`: a success condition that must have held first (the fault then
+  // hits at `at` or as soon as it held, whichever is later): a fault meant
+  // for a phase of the run hits in it however fast the machine is.
+  std::string after;
+  std::string describe() const;  // "stop camera-living-1 at 5 for 8"
 };
 
 // Which part of a tuple's value a condition or narration looks at.

@@ -73,6 +73,10 @@ class Checker {
 
   void faults(const std::vector<Fault>& list) {
     for (const auto& f : list) {
+      if (!f.after.empty() && std::none_of(s_.success.begin(), s_.success.end(),
+                                           [&](const Condition& c) { return c.name == f.after; }))
+        fail(f.origin,
+             "fault '" + f.describe() + "' comes after '" + f.after + "', which is no condition");
       // A fault hits a process the runner starts: the world or a declared PEIS.
       const bool world = s_.world && f.peis == s_.world->name;
       const PeisSpec* p = s_.find(f.peis);

@@ -237,7 +237,7 @@ Goal readGoal(const Reader& r, const YAML::Node& n) {
 }
 
 Fault readFault(const Reader& r, const YAML::Node& n) {
-  r.onlyKeys(n, {"at", "kill", "stop", "cut", "freeze", "for"}, "a fault");
+  r.onlyKeys(n, {"at", "kill", "stop", "cut", "freeze", "for", "after"}, "a fault");
   Fault f;
   f.origin = r.at(n);
   if (!n["at"]) r.fail(n, "a fault needs at: SECONDS");
@@ -260,6 +260,7 @@ Fault readFault(const Reader& r, const YAML::Node& n) {
   } else if (f.kind == FaultKind::Stop) {
     r.fail(n, "stop needs for: SECONDS (how long the PEIS stays stopped)");
   }
+  if (n["after"]) f.after = r.text(n["after"], "after");
   return f;
 }
 

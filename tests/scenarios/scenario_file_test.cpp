@@ -61,6 +61,7 @@ faults:
   - at: 5
     stop: nav
     for: 2
+    after: at the bed
 timeline:
   - tuple: plant.TiltValue
     say: the plant asks the blind to move ({value})
@@ -109,6 +110,7 @@ TEST_CASE("scenario: a file is read into the model", "[unit][scenario]") {
   CHECK(s.goals[0].key == "ExecGoal");
   REQUIRE(s.faults.size() == 1);
   CHECK(s.faults[0].describe() == "stop nav at 5 for 2");
+  CHECK(s.faults[0].after == "at the bed");
   REQUIRE(s.success.size() == 2);
   CHECK(s.success[0].test.kind == TestKind::Near);
   CHECK(s.success[0].test.nearOwner == "world");
@@ -186,7 +188,7 @@ TEST_CASE("scenario: check finds unknown programs and PEIS and placeholders and 
     const std::string text =
         std::string(kSmall) + "  - name: ghost\n    tuple: nobody.status\n    equals: running\n";
     CHECK_THAT(joined(checkScenario(parseScenario(text, "small.yaml"), finder)),
-               Contains("small.yaml:37: condition 'ghost' names PEIS 'nobody', which the "
+               Contains("small.yaml:38: condition 'ghost' names PEIS 'nobody', which the "
                         "scenario does not have (it has: Pippi-base, nav, plant, world)"));
   }
   SECTION("placeholders, faults, deadlines and after chains") {
@@ -202,6 +204,7 @@ faults:
   - {at: 1, cut: p, for: 1}
   - {at: 1, freeze: s}
   - {at: 1, kill: Pippi-base}
+  - {at: 1, kill: a, after: nothing like it}
 success:
   - {name: one, tuple: a.x, equals: "1", after: two}
   - {name: two, tuple: a.x, equals: "1", after: one, by: 3}
@@ -217,9 +220,11 @@ success:
     CHECK_THAT(errors, !Contains("bad.yaml:10:") && !Contains("bad.yaml:11:"));
     CHECK_THAT(errors,
                Contains("bad.yaml:12: fault 'kill Pippi-base at 1' names PEIS 'Pippi-base'"));
-    CHECK_THAT(errors, Contains("bad.yaml:14: condition 'one' has no deadline"));
+    CHECK_THAT(errors, Contains("bad.yaml:13: fault 'kill a at 1' comes after 'nothing like it', "
+                                "which is no condition"));
+    CHECK_THAT(errors, Contains("bad.yaml:15: condition 'one' has no deadline"));
     CHECK_THAT(errors, Contains("its after: chain goes round"));
-    CHECK_THAT(errors, Contains("bad.yaml:16: condition 'three': matches '([' is not a regular "
+    CHECK_THAT(errors, Contains("bad.yaml:17: condition 'three': matches '([' is not a regular "
                                 "expression"));
   }
   SECTION("faults given with --inject") {

@@ -133,12 +133,16 @@ peis:
   - {name: alpha, program: peis, options: [node]}
   - {name: beta, program: peis, options: [node]}
   - {name: gamma, program: peis, options: [node]}
+  - {name: delta, program: peis, options: [node]}
 goals:
   - {at: 8, set: alpha.after, value: back}
+  - {at: 3, set: beta.go, value: "yes"}
 faults:
   - {at: 1, stop: alpha, for: 4}
+  - {at: 0.5, kill: delta, after: beta is told}
 success:
   - {name: alpha answers after its stop, tuple: alpha.after, equals: back}
+  - {name: beta is told, tuple: beta.go, equals: "yes"}
 )");
   const Run run = runScenario({"run", file, "--inject", "kill gamma at 0.5", "--trace",
                                dir.file("t.sqlite"), "--picture", ""});
@@ -149,6 +153,14 @@ success:
   CHECK_THAT(run.out, Contains("FAULT: stopped with SIGSTOP for 4.0 s"));
   CHECK_THAT(run.out, Contains("alpha") && Contains("left the ecology"));
   CHECK_THAT(run.out, Contains("resumed with SIGCONT"));
+  // delta's kill waits for the condition it comes after (at 3), not only its time (0.5).
+  const std::regex deltaKilled(R"(([0-9.]+) s  delta +FAULT: kill -9)");
+  std::smatch killed;
+  REQUIRE(std::regex_search(run.out, killed, deltaKilled));
+  CHECK(std::stod(killed[1]) >= 3.0);
+  const auto told = run.out.find("condition 'beta is told' holds");
+  REQUIRE(told != std::string::npos);
+  CHECK(told < static_cast<std::size_t>(killed.position(0)));
   // alpha came back: it joined twice.
   const std::regex joined(R"(alpha +joined the ecology)");
   CHECK(std::distance(std::sregex_iterator(run.out.begin(), run.out.end(), joined),
