@@ -4,6 +4,8 @@
 
 #include <algorithm>
 
+#include "net/string_room.h"
+
 namespace peis {
 
 namespace {
@@ -94,16 +96,21 @@ void Outbox::appendFrame(PeisId destination, Queue& queue, const Tuple& tuple) {
       entry.frames = std::move(spareFrames_.back());
       spareFrames_.pop_back();
     } else {
-      entry.frames.reserve(4096);
+      // Sized once for the whole entry: a stream's entry grows to it, and
+      // growing copies (allocation and frames) are what it costs otherwise.
+      // Only the pages written become resident.
+      entry.frames.reserve(kFramesPerEntryBytes);
     }
   }
   auto& entry = queue.entries.back();
   const auto before = entry.frames.size();
-  wire::encodeTupleUpdate(wire::Envelope{self_, destination, wire::kDefaultTtl}, incarnation_,
-                          tuple, entry.frames, wire::TupleData::Include, bytes);
+  // Sized without zero-filling: the encoder writes every byte.
+  net::resizeForOverwrite(entry.frames, before + bytes);
+  queue.encoder.write(wire::Envelope{self_, destination, wire::kDefaultTtl}, incarnation_, tuple,
+                      entry.frames.data() + before);
   ++entry.frameCount;
-  queue.bytes += entry.frames.size() - before;
-  bytes_ += entry.frames.size() - before;
+  queue.bytes += bytes;
+  bytes_ += bytes;
 }
 
 bool Outbox::take(std::vector<Outgoing>& out, std::size_t most, std::size_t mostBytes,
