@@ -96,14 +96,17 @@ void Outbox::appendFrame(PeisId destination, Queue& queue, const Tuple& tuple) {
       entry.frames = std::move(spareFrames_.back());
       spareFrames_.pop_back();
     } else {
-      // Sized once for the whole entry: a stream's entry grows to it, and
-      // growing copies (allocation and frames) are what it costs otherwise.
-      // Only the pages written become resident.
-      entry.frames.reserve(kFramesPerEntryBytes);
+      entry.frames.reserve(4096);
     }
   }
   auto& entry = queue.entries.back();
   const auto before = entry.frames.size();
+  // An entry that outgrows its first buffer is a stream's: it grows once,
+  // to all it may hold, rather than by doubling (a copy of its frames each
+  // time).
+  if (entry.frames.capacity() < before + bytes) {
+    entry.frames.reserve(std::max(before + bytes, kFramesPerEntryBytes));
+  }
   // Sized without zero-filling: the encoder writes every byte.
   net::resizeForOverwrite(entry.frames, before + bytes);
   queue.encoder.write(wire::Envelope{self_, destination, wire::kDefaultTtl}, incarnation_, tuple,
