@@ -210,7 +210,7 @@ struct Kernel::Impl {
   // Fails pending remote writes, leaves the ecology (a Leave on every link)
   // and stops the network; `closed` runs once its links are closed.
   void stopNetwork(std::function<void()> closed) EXCLUDES(mu);
-  void onMessages(std::vector<wire::RoutedMessage>&& messages) EXCLUDES(mu);
+  void onMessages(std::span<wire::RoutedMessage> messages) EXCLUDES(mu);
   void onPeerUp(const net::PeerInfo& peer) EXCLUDES(mu);
   void onPeerDown(PeisId peer) EXCLUDES(mu);
   void onTopology() EXCLUDES(mu);

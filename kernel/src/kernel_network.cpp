@@ -52,7 +52,7 @@ void Kernel::Impl::startNetwork() {  // kernel thread
   config.relayGrace = options.limits.relayGrace;
   config.credentials = credentials;
   net::Network::Events events;
-  events.onMessages = [this](std::vector<wire::RoutedMessage>&& m) { onMessages(std::move(m)); };
+  events.onMessages = [this](std::span<wire::RoutedMessage> m) { onMessages(m); };
   events.onPeerUp = [this](const net::PeerInfo& p) { onPeerUp(p); };
   events.onPeerDown = [this](PeisId p) { onPeerDown(p); };
   events.repickId = [this] { return repickId(); };
@@ -221,7 +221,7 @@ void Kernel::Impl::holdWrite(const WriteGate& gate, PeisId source, wire::Write&&
 
 // Messages that arrived together (one socket read) are applied under one
 // lock; write results complete outside it.
-void Kernel::Impl::onMessages(std::vector<wire::RoutedMessage>&& messages) {
+void Kernel::Impl::onMessages(std::span<wire::RoutedMessage> messages) {
   std::vector<std::pair<PeisId, wire::WriteResult>> results;
   std::vector<std::pair<PeisId, wire::Write>> gated;
   WriteGate gate;

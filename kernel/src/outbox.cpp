@@ -4,6 +4,8 @@
 
 #include <algorithm>
 
+#include "net/string_room.h"
+
 namespace peis {
 
 namespace {
@@ -99,11 +101,19 @@ void Outbox::appendFrame(PeisId destination, Queue& queue, const Tuple& tuple) {
   }
   auto& entry = queue.entries.back();
   const auto before = entry.frames.size();
-  wire::encodeTupleUpdate(wire::Envelope{self_, destination, wire::kDefaultTtl}, incarnation_,
-                          tuple, entry.frames, wire::TupleData::Include, bytes);
+  // An entry that outgrows its first buffer is a stream's: it grows once,
+  // to all it may hold, rather than by doubling (a copy of its frames each
+  // time).
+  if (entry.frames.capacity() < before + bytes) {
+    entry.frames.reserve(std::max(before + bytes, kFramesPerEntryBytes));
+  }
+  // Sized without zero-filling: the encoder writes every byte.
+  net::resizeForOverwrite(entry.frames, before + bytes);
+  queue.encoder.write(wire::Envelope{self_, destination, wire::kDefaultTtl}, incarnation_, tuple,
+                      entry.frames.data() + before);
   ++entry.frameCount;
-  queue.bytes += entry.frames.size() - before;
-  bytes_ += entry.frames.size() - before;
+  queue.bytes += bytes;
+  bytes_ += bytes;
 }
 
 bool Outbox::take(std::vector<Outgoing>& out, std::size_t most, std::size_t mostBytes,

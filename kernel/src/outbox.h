@@ -100,6 +100,8 @@ class Outbox {
     std::size_t messages = 0;  // estimated bytes of the other messages
     bool blocked = false;      // its link was congested at the last take()
     bool listed = false;       // in order_ (it has entries)
+    // Encodes the destination's updates (a stream's repeated fields once).
+    wire::TupleUpdateEncoder encoder;
   };
   Queue& queueFor(PeisId destination);
   void appendFrame(PeisId destination, Queue& queue, const Tuple& tuple);

@@ -82,7 +82,11 @@ bool Pattern::matchesOwnerAndKey(PeisId owner, std::string_view key) const {
 }
 
 bool Pattern::matches(const Tuple& tuple) const {
-  return matchesOwnerAndKey(tuple.owner, tuple.key) && (!creator_ || *creator_ == tuple.creator) &&
+  return matchesOwnerAndKey(tuple.owner, tuple.key) && matchesBeyondOwnerAndKey(tuple);
+}
+
+bool Pattern::matchesBeyondOwnerAndKey(const Tuple& tuple) const {
+  return (!creator_ || *creator_ == tuple.creator) &&
          (!mimetype_ || *mimetype_ == tuple.mimetype) && (!data_ || *data_ == tuple.data);
 }
 

@@ -4,6 +4,7 @@
 #include <algorithm>
 
 #include "peis/error.h"
+#include "same_bytes.h"
 
 namespace peis {
 namespace {
@@ -34,7 +35,9 @@ Replication::Replication(TupleSpace& space, std::uint64_t incarnation,
 
 const std::vector<Replication::Recipient>& Replication::recipientsOf(const Tuple& tuple) {
   auto& cache = recipients_;
-  if (cache.valid && cache.owner == tuple.owner && cache.key == tuple.key) return cache.recipients;
+  if (cache.valid && cache.owner == tuple.owner && sameBytes(cache.key, tuple.key)) {
+    return cache.recipients;
+  }
   cache.recipients.clear();
   for (const auto& [subscriber, subscriptions] : remote_) {
     for (const auto& [id, subscription] : subscriptions) {
@@ -331,11 +334,9 @@ bool Replication::onUpdate(PeisId source, wire::TupleUpdate&& update) {
     return false;
   }
   if (!checkIncarnation(source, update.ownerIncarnation)) return false;
-  const bool accepted = space_.accept(std::move(update.tuple));
-  // What the stored tuple gave up for the decoded data (or the data of an
-  // update not taken) is memory for the next decoded tuple.
-  wire::recycleDataBuffer(std::move(update.tuple.data));
-  return accepted;
+  // What the stored tuple gives up for the decoded data stays in the
+  // update: the network decodes its next frame into this message.
+  return space_.accept(std::move(update.tuple));
 }
 
 bool Replication::onDeleted(PeisId source, const wire::TupleDeleted& deleted) {

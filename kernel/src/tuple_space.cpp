@@ -9,6 +9,7 @@
 
 #include "peis/error.h"
 #include "peis/key.h"
+#include "same_bytes.h"
 #include "saturating_time.h"
 
 // ThreadSanitizer does not model the fence that orders the reuse of a
@@ -174,7 +175,7 @@ TuplePtr TupleSpace::live(const TuplePtr& tuple) const {
 }
 
 bool TupleSpace::isLastEntry(PeisId owner, std::string_view key) const {
-  return hasLastEntry_ && lastEntry_->first.owner == owner && lastEntry_->first.key == key;
+  return hasLastEntry_ && lastEntry_->first.owner == owner && sameBytes(lastEntry_->first.key, key);
 }
 
 std::shared_ptr<Tuple> TupleSpace::newTuple() {
@@ -186,7 +187,22 @@ std::shared_ptr<Tuple> TupleSpace::newTuple() {
 
 std::shared_ptr<Tuple> TupleSpace::newTuple(Tuple&& value) {
   auto tuple = newTuple();
-  *tuple = std::move(value);  // every field; strings take over value's memory
+  // Every field. The spare storage of a stream's last value holds its key
+  // and mimetype already: equal ones are not copied again. The data buffers
+  // are swapped: `value` gets the spare's, for the next decoded update (a
+  // received message is decoded into again), with its size, which a
+  // stream's next update mostly has too.
+  Tuple& t = *tuple;
+  t.owner = value.owner;
+  t.creator = value.creator;
+  if (!sameBytes(t.key, value.key)) t.key = std::move(value.key);
+  t.data.swap(value.data);
+  if (!sameBytes(t.mimetype, value.mimetype)) t.mimetype = std::move(value.mimetype);
+  t.encoding = value.encoding;
+  t.ts_write = value.ts_write;
+  t.ts_user = value.ts_user;
+  t.ts_expire = value.ts_expire;
+  t.seqno = value.seqno;
   return tuple;
 }
 
@@ -235,7 +251,7 @@ TuplePtr TupleSpace::set(std::string_view key, std::string data, const WriteOpti
   checkMimetype(options.mimetype);
   const auto now = clock_();
   // Entries of ownSeqnos_ are never erased: the one used last stays valid.
-  if (!hasLastSeqno_ || lastSeqno_->first != key) {
+  if (!hasLastSeqno_ || !sameBytes(lastSeqno_->first, key)) {
     lastSeqno_ = ownSeqnos_.find(key);
     if (lastSeqno_ == ownSeqnos_.end()) lastSeqno_ = ownSeqnos_.emplace(std::string(key), 0).first;
     hasLastSeqno_ = true;
@@ -246,9 +262,10 @@ TuplePtr TupleSpace::set(std::string_view key, std::string data, const WriteOpti
   Tuple& tuple = *ptr;
   tuple.owner = self_;
   tuple.creator = creator == 0 ? self_ : creator;
-  tuple.key.assign(key);
+  // A spare storage of the key's last value holds its key and mimetype.
+  if (!sameBytes(tuple.key, key)) tuple.key.assign(key);
   tuple.data = std::move(data);
-  tuple.mimetype = options.mimetype;
+  if (!sameBytes(tuple.mimetype, options.mimetype)) tuple.mimetype = options.mimetype;
   tuple.encoding = options.encoding;
   tuple.ts_write = now;
   tuple.ts_user = options.ts_user;
@@ -661,7 +678,8 @@ void TupleSpace::retarget(const std::shared_ptr<Indirect>& indirect) {
 const std::vector<std::shared_ptr<TupleSpace::Entry>>& TupleSpace::candidates(EventKind kind,
                                                                               const Tuple& tuple) {
   auto& cache = matchCache_;
-  if (cache.valid && cache.owner == tuple.owner && cache.kind == kind && cache.key == tuple.key) {
+  if (cache.valid && cache.owner == tuple.owner && cache.kind == kind &&
+      sameBytes(cache.key, tuple.key)) {
     return cache.entries;
   }
   cache.entries.clear();
@@ -694,7 +712,7 @@ void TupleSpace::queueEvent(EventKind kind, const TuplePtr& tuple) {
     return *delivery;
   };
   for (const auto& entry : candidates(kind, *tuple)) {
-    if (entry->pattern.matches(*tuple)) {  // its creator, mimetype or data filter
+    if (entry->pattern.matchesBeyondOwnerAndKey(*tuple)) {  // its creator, mimetype or data filter
       deliver().targets_.emplace_back(entry);
     }
   }

@@ -241,7 +241,7 @@ class TupleSpace {
   // stored tuple nobody else holds any more (a replaced value, a delivery
   // that ran) is kept in spare_ and reused by newTuple (at most
   // kMaxSpareTuples, without their data buffers beyond kSpareDataBytes).
-  static constexpr std::size_t kMaxSpareTuples = 256;
+  static constexpr std::size_t kMaxSpareTuples = 1024;
   static constexpr std::size_t kSpareDataBytes = 256;
   std::shared_ptr<Tuple> newTuple();
   std::shared_ptr<Tuple> newTuple(Tuple&& value);

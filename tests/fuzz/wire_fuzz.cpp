@@ -3,7 +3,9 @@
 // out of bounds (ASan/UBSan watch that). What decodes must survive a round
 // trip: encoding it and decoding the bytes again gives an equal message,
 // and encoding that gives the same bytes again (the encoding is canonical).
-// The same bytes read as an oversized frame's head never crash either.
+// The same bytes read as an oversized frame's head never crash either. The
+// receive path's decoder and a stream's encoder agree with decode() and
+// encode().
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
@@ -55,6 +57,20 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     decodeFrame(peis::wire::encodeFrame(peis::wire::answerOversize(*oversize, 5, 16)));
   }
   auto result = peis::wire::decode(input, kMaxDataBytes);
+  // The receive path's decoder (decodeRouted, with its fast path for tuple
+  // updates) agrees with decode() on every routed frame: the same verdict
+  // and the same message. It decodes into a message that the inputs before
+  // left behind, as the network's inbox reuses its messages.
+  if (peis::wire::isRoutedFrame(input)) {
+    static peis::wire::RoutedMessage reused;
+    std::string error;
+    const bool ok = peis::wire::decodeRouted(input, kMaxDataBytes, reused, error);
+    if (ok != result.message.has_value()) fail("decodeRouted and decode disagree:", error);
+    if (!ok && error.empty()) fail("decodeRouted rejected without a reason");
+    if (ok && !(peis::wire::Message{reused} == *result.message)) {
+      fail("decodeRouted decoded another message than decode");
+    }
+  }
   if (!result.message) {
     if (result.error.empty()) fail("rejected without a reason");
     return 0;
@@ -73,6 +89,12 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       peis::wire::encodeTupleUpdate(routed->envelope, update->ownerIncarnation, update->tuple,
                                     direct);
       if (direct != first) fail("encodeTupleUpdate differs from encode");
+      // A stream's encoder (its repeated fields kept from the inputs before)
+      // writes the same bytes.
+      static peis::wire::TupleUpdateEncoder encoder;
+      std::string streamed;
+      encoder.append(routed->envelope, update->ownerIncarnation, update->tuple, streamed);
+      if (streamed != first) fail("TupleUpdateEncoder differs from encode");
     }
     // Re-enveloping (as a forwarding PEIS does) keeps the body.
     auto forwarded = first;

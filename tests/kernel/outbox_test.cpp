@@ -141,3 +141,24 @@ TEST_CASE("outbox: limits per turn, drop and a new id", "[unit][outbox]") {
   CHECK(taken.empty());
   CHECK(outbox.empty());
 }
+
+TEST_CASE("outbox: frames written into a recycled buffer that must grow decode whole",
+          "[unit][outbox]") {
+  // A stream's frames are written into an entry's buffer sized without
+  // zero-filling; a buffer handed back small (a direct send's) grows under
+  // them. Keys, sizes and the repeated fields change from frame to frame.
+  Outbox outbox(kSelf, 7);
+  std::string small;
+  small.reserve(100);
+  outbox.recycleFrames(std::move(small));
+  std::vector<std::string> expected;
+  for (int i = 0; i < 600; ++i) {
+    std::string data(i % 7 == 0 ? 2048 : 16, static_cast<char>('a' + i % 3));
+    data += std::to_string(i);
+    expected.push_back(data);
+    outbox.pushUpdate(9, tuple("stress." + std::to_string(i % 3), data, i + 1));
+  }
+  std::vector<Outbox::Outgoing> taken;
+  outbox.take(taken);
+  CHECK(sentTo(9, taken) == expected);
+}

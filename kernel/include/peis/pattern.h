@@ -31,6 +31,9 @@ class Pattern {
   bool matches(const Tuple& tuple) const;
   bool matchesKey(std::string_view key) const;
   bool matchesOwnerAndKey(PeisId owner, std::string_view key) const;
+  // The creator, mimetype and data filters alone (for a tuple whose owner
+  // and key are known to match).
+  bool matchesBeyondOwnerAndKey(const Tuple& tuple) const;
   // True if the pattern names one exact (owner, key).
   bool isExact() const;
 

@@ -20,6 +20,7 @@
 
 #include "log.h"
 #include "net/handshake.h"
+#include "net/inbox.h"
 #include "net/link.h"
 #include "net/link_policy.h"
 #include "net/link_security.h"
@@ -269,9 +270,10 @@ class Network::Impl final : public LinkHandler {
   // sent once it has one, dropped after kHoldFor.
   std::deque<std::pair<wire::RoutedMessage, SteadyClock::time_point>> heldAnswers_;
   // Messages for this PEIS, handed over together once a read is parsed. Two
-  // buffers take turns so a stream of reads allocates no new vector.
-  std::vector<wire::RoutedMessage> inbox_;
-  std::vector<wire::RoutedMessage> spareInbox_;
+  // inboxes take turns (a handler may parse frames held back meanwhile),
+  // and their messages are decoded into again by the next reads.
+  Inbox inbox_;
+  Inbox spareInbox_;
 };
 
 // --- Life cycle ------------------------------------------------------------------
@@ -1316,11 +1318,11 @@ void Network::Impl::retryHeld() {
 
 void Network::Impl::flushInbox() {
   if (inbox_.empty()) return;
-  std::vector<wire::RoutedMessage> messages;
+  Inbox messages;
   messages.swap(inbox_);
   inbox_.swap(spareInbox_);
-  if (events_.onMessages) events_.onMessages(std::move(messages));
-  messages.clear();  // the handler took the messages; keep the buffer
+  if (events_.onMessages) events_.onMessages(messages.messages());
+  messages.clear();  // the handler took what it keeps; the messages stay for reuse
   if (spareInbox_.capacity() < messages.capacity()) spareInbox_.swap(messages);
 }
 

@@ -13,6 +13,7 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -91,8 +92,9 @@ class Network {
  public:
   struct Events {
     // Routed messages addressed to this PEIS arrived (those of one socket
-    // read together, in order).
-    std::function<void(std::vector<wire::RoutedMessage>&&)> onMessages;
+    // read together, in order). The handler may move from them; the network
+    // decodes later frames into the same messages.
+    std::function<void(std::span<wire::RoutedMessage>)> onMessages;
     // A PEIS became reachable, or came back with a new incarnation.
     std::function<void(const PeerInfo&)> onPeerUp;
     // A PEIS is no longer reachable.

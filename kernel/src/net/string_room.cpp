@@ -6,7 +6,10 @@
 namespace peis::net {
 
 void resizeForOverwrite(std::string& s, std::size_t bytes) {
-  s.resize_and_overwrite(bytes, [](char*, std::size_t n) { return n; });
+  // The size is `bytes`, not the operation's `n`: libstdc++ 12 passes the
+  // capacity it grew to (up to twice the old one) as `n` when it had to grow,
+  // and a string sized to that would carry bytes nobody wrote.
+  s.resize_and_overwrite(bytes, [bytes](char*, std::size_t) { return bytes; });
 }
 
 }  // namespace peis::net

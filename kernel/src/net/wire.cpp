@@ -6,6 +6,7 @@
 
 #include "peis/error.h"
 #include "peis/key.h"
+#include "same_bytes.h"
 
 namespace peis::wire {
 namespace {
@@ -277,25 +278,11 @@ std::uint32_t readTupleHead(Reader& r, Tuple& t) {
   return r.u32("data length");
 }
 
-// recycleDataBuffer's buffers, of this thread.
-std::vector<std::string>& spareDataBuffers() {
-  thread_local std::vector<std::string> spare;
-  return spare;
-}
-
 void readTupleInto(Reader& r, std::size_t maxDataBytes, Tuple& t) {
   const auto size = readTupleHead(r, t);
   if (r.ok() && size > maxDataBytes) {
     r.fail("data of " + std::to_string(size) + " bytes exceeds the limit of " +
            std::to_string(maxDataBytes));
-  }
-  if (t.data.capacity() < size && size <= kSpareDataBufferBytes) {
-    auto& spare = spareDataBuffers();
-    // A spare too small would be reallocated by the copy below: kept.
-    if (!spare.empty() && spare.back().capacity() >= size) {
-      t.data.swap(spare.back());
-      spare.pop_back();
-    }
   }
   r.bytesInto(t.data, size, "data");
 }
@@ -701,6 +688,75 @@ void encodeTupleUpdate(const Envelope& envelope, std::uint64_t ownerIncarnation,
   writeTuple(w, tuple);
 }
 
+namespace {
+// Where a TupleUpdate frame's key begins, after its length: type (1),
+// envelope (9), incarnation (8), owner (4), creator (4), key length (2).
+constexpr std::size_t kTupleUpdateKeyAt = 28;
+}  // namespace
+
+bool TupleUpdateEncoder::repeats(const Envelope& envelope, std::uint64_t ownerIncarnation,
+                                 const Tuple& tuple) const {
+  if (head_.empty() || envelope != envelope_ || ownerIncarnation != ownerIncarnation_ ||
+      tuple.owner != owner_ || tuple.creator != creator_ || tuple.encoding != encoding_ ||
+      tuple.key.size() != keyBytes_) {
+    return false;
+  }
+  const std::string_view head(head_);
+  // key | u8 mimetype length | mimetype | encoding
+  return sameBytes(head.substr(kTupleUpdateKeyAt, keyBytes_), tuple.key) &&
+         sameBytes(head.substr(kTupleUpdateKeyAt + keyBytes_ + 1,
+                               head.size() - kTupleUpdateKeyAt - keyBytes_ - 2),
+                   tuple.mimetype);
+}
+
+void TupleUpdateEncoder::append(const Envelope& envelope, std::uint64_t ownerIncarnation,
+                                const Tuple& tuple, std::string& out) {
+  const auto start = out.size();
+  out.resize(start + tupleUpdateFrameBytes(tuple));
+  write(envelope, ownerIncarnation, tuple, out.data() + start);
+}
+
+void TupleUpdateEncoder::write(const Envelope& envelope, std::uint64_t ownerIncarnation,
+                               const Tuple& tuple, char* at) {
+  const auto bytes = tupleUpdateFrameBytes(tuple);
+  RawWriter w(at);
+  w.u32(static_cast<std::uint32_t>(bytes - kFrameHeaderBytes));
+  // Keys over 65535 or mimetypes over 255 bytes are cut by the field
+  // writers; such a tuple is written field by field, as always.
+  if (tuple.key.size() > 65535 || tuple.mimetype.size() > 255) {
+    w.u8(static_cast<std::uint8_t>(MessageType::TupleUpdate));
+    w.i32(envelope.source);
+    w.i32(envelope.destination);
+    w.u8(envelope.ttl);
+    w.u64(ownerIncarnation);
+    return writeTuple(w, tuple);
+  }
+  if (!repeats(envelope, ownerIncarnation, tuple)) {
+    head_.assign(1, static_cast<char>(MessageType::TupleUpdate));
+    Writer head(head_);
+    writeEnvelope(head, envelope);
+    head.u64(ownerIncarnation);
+    head.i32(tuple.owner);
+    head.i32(tuple.creator);
+    head.str16(tuple.key);
+    head.str8(tuple.mimetype);
+    head.u8(static_cast<std::uint8_t>(tuple.encoding));
+    envelope_ = envelope;
+    ownerIncarnation_ = ownerIncarnation;
+    owner_ = tuple.owner;
+    creator_ = tuple.creator;
+    encoding_ = tuple.encoding;
+    keyBytes_ = tuple.key.size();
+  }
+  w.raw(head_);
+  w.i64(micros(tuple.ts_write));
+  w.i64(micros(tuple.ts_user));
+  w.i64(micros(tuple.ts_expire));
+  w.u64(tuple.seqno);
+  w.u32(static_cast<std::uint32_t>(tuple.data.size()));
+  w.raw(tuple.data);
+}
+
 std::string encodeFrame(const RoutedMessage& message) {
   std::string out;
   encode(message, out);
@@ -714,13 +770,85 @@ void reEnvelope(std::string& frame, const Envelope& envelope) {
   frame.replace(kFrameHeaderBytes + 1, header.size(), header);
 }
 
-std::uint32_t frameLength(std::string_view bytes) {
-  std::uint32_t v = 0;
-  for (int i = 0; i < 4; ++i) v = (v << 8) | static_cast<std::uint8_t>(bytes[i]);
-  return v;
+namespace {
+// Sets `s` to the `n` bytes at `p`: within its capacity (the inbox's
+// messages are reused, and keep their data's memory; a stream's data is
+// mostly of the size held already) a plain copy, without string::assign's
+// general case. A stream repeats its key and mimetype into
+// a message that held them already: equal ones are compared, not copied.
+inline void assignField(std::string& s, const char* p, std::size_t n) {
+  if (n > s.capacity()) {
+    s.assign(p, n);
+    return;
+  }
+  if (s.size() != n) s.resize(n);
+  copyField(s.data(), p, n);
+}
+inline bool sameField(const std::string& s, const char* p, std::size_t n) {
+  return sameBytes(s, std::string_view(p, n));
 }
 
-namespace {
+// A well-formed TupleUpdate frame (after the type byte) read with one bounds
+// check per variable-length part instead of one per field: false, with
+// `out` partly written, for anything that is not (too short, an invalid id,
+// a bad key, an unknown encoding, data over the limit or not ending the
+// frame), which readRouted() then reads field by field for the reason.
+bool readTupleUpdateFast(std::string_view in, std::size_t maxDataBytes, RoutedMessage& out) {
+  // envelope (9), incarnation (8), owner (4), creator (4), key length (2).
+  constexpr std::size_t kBeforeKey = 27;
+  // encoding (1), three timestamps (24), seqno (8), data length (4).
+  constexpr std::size_t kAfterMimetype = 37;
+  const char* p = in.data();
+  std::size_t left = in.size();
+  if (left < kBeforeKey) return false;
+  const auto source = static_cast<std::int32_t>(readBigEndian(p, 4));
+  const auto destination = static_cast<std::int32_t>(readBigEndian(p + 4, 4));
+  const auto owner = static_cast<std::int32_t>(readBigEndian(p + 17, 4));
+  const auto creator = static_cast<std::int32_t>(readBigEndian(p + 21, 4));
+  const auto keyBytes = static_cast<std::size_t>(readBigEndian(p + 25, 2));
+  if (!isValidPeisId(source) || !isValidPeisId(destination) || !isValidPeisId(owner) ||
+      !isValidPeisId(creator)) {
+    return false;
+  }
+  left -= kBeforeKey;
+  // The key, the mimetype's length byte, and at least the fixed fields.
+  if (left < keyBytes + 1 + kAfterMimetype) return false;
+  const char* key = p + kBeforeKey;
+  const auto mimeBytes = static_cast<std::size_t>(static_cast<std::uint8_t>(key[keyBytes]));
+  left -= keyBytes + 1;
+  if (left < mimeBytes + kAfterMimetype) return false;
+  const char* mime = key + keyBytes + 1;
+  const char* fixed = mime + mimeBytes;
+  const auto encoding = static_cast<std::uint8_t>(fixed[0]);
+  const auto dataBytes = static_cast<std::size_t>(readBigEndian(fixed + 33, 4));
+  left -= mimeBytes + kAfterMimetype;
+  if (encoding > 1 || dataBytes != left || dataBytes > maxDataBytes) return false;
+  // A stream repeats one key: the last key that passed is not checked again.
+  thread_local std::string lastGoodKey;
+  if (!sameField(lastGoodKey, key, keyBytes)) {
+    if (keyProblem(std::string_view(key, keyBytes))) return false;
+    lastGoodKey.assign(key, keyBytes);
+  }
+  out.envelope.source = source;
+  out.envelope.destination = destination;
+  out.envelope.ttl = static_cast<std::uint8_t>(p[8]);
+  auto* update = std::get_if<TupleUpdate>(&out.body);
+  if (!update) update = &out.body.emplace<TupleUpdate>();
+  update->ownerIncarnation = readBigEndian(p + 9, 8);
+  Tuple& t = update->tuple;
+  t.owner = owner;
+  t.creator = creator;
+  if (!sameField(t.key, key, keyBytes)) t.key.assign(key, keyBytes);
+  if (!sameField(t.mimetype, mime, mimeBytes)) t.mimetype.assign(mime, mimeBytes);
+  t.encoding = static_cast<Encoding>(encoding);
+  t.ts_write = fromMicros(static_cast<std::int64_t>(readBigEndian(fixed + 1, 8)));
+  t.ts_user = fromMicros(static_cast<std::int64_t>(readBigEndian(fixed + 9, 8)));
+  t.ts_expire = fromMicros(static_cast<std::int64_t>(readBigEndian(fixed + 17, 8)));
+  t.seqno = readBigEndian(fixed + 25, 8);
+  assignField(t.data, fixed + kAfterMimetype, dataBytes);
+  return true;
+}
+
 // The envelope and body of a routed frame into `out`; a TupleUpdate (the
 // hot path) is read straight into the message's tuple.
 void readRouted(MessageType type, Reader& r, std::size_t maxDataBytes, RoutedMessage& out) {
@@ -749,20 +877,15 @@ bool decodeRouted(std::string_view frame, std::size_t maxDataBytes, RoutedMessag
     error = "unknown routed message type " + std::to_string(rawType);
     return false;
   }
+  if (rawType == static_cast<std::uint8_t>(MessageType::TupleUpdate) &&
+      readTupleUpdateFast(frame.substr(1), maxDataBytes, out)) {
+    return true;
+  }
   Reader r(frame.substr(1));
   readRouted(static_cast<MessageType>(rawType), r, maxDataBytes, out);
   r.end();
   if (!r.ok()) error = r.error();
   return r.ok();
-}
-
-void recycleDataBuffer(std::string&& buffer) {
-  // Buffers within the small-string size hold no memory of their own.
-  if (buffer.capacity() <= std::string().capacity() || buffer.capacity() > kSpareDataBufferBytes) {
-    return;
-  }
-  auto& spare = spareDataBuffers();
-  if (spare.size() < kSpareDataBuffers) spare.push_back(std::move(buffer));
 }
 
 bool decodeTupleUpdateHead(std::string_view head, std::size_t frameLength, std::size_t maxDataBytes,

@@ -4,7 +4,9 @@
 // input or accepting an invalid value.
 #pragma once
 
+#include <bit>
 #include <cstdint>
+#include <cstring>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -199,6 +201,31 @@ std::size_t tupleUpdateFrameBytes(const Tuple& tuple);
 void encodeTupleUpdate(const Envelope& envelope, std::uint64_t ownerIncarnation, const Tuple& tuple,
                        std::string& out, TupleData data = TupleData::Include,
                        std::size_t frameBytes = 0);
+// Encodes the TupleUpdate frames of a stream to one destination: the fields
+// that repeat from one update of a tuple to the next (type, envelope, owner
+// incarnation, owner, creator, key, mimetype, encoding) are encoded once and
+// copied into each frame as bytes while they stay the same. The frames are
+// exactly encodeTupleUpdate's.
+class TupleUpdateEncoder {
+ public:
+  // Appends the frame of `tuple` to `out`.
+  void append(const Envelope& envelope, std::uint64_t ownerIncarnation, const Tuple& tuple,
+              std::string& out);
+  // Writes the frame of `tuple` at `at`, where tupleUpdateFrameBytes(tuple)
+  // bytes are free (the caller sized its buffer without filling it).
+  void write(const Envelope& envelope, std::uint64_t ownerIncarnation, const Tuple& tuple,
+             char* at);
+
+ private:
+  bool repeats(const Envelope& envelope, std::uint64_t ownerIncarnation, const Tuple& tuple) const;
+  std::string head_;  // the repeated fields as encoded, the type byte first; empty: none yet
+  Envelope envelope_;
+  std::uint64_t ownerIncarnation_ = 0;
+  PeisId owner_ = 0;
+  PeisId creator_ = 0;
+  Encoding encoding_ = Encoding::Ascii;
+  std::size_t keyBytes_ = 0;
+};
 // Rewrites the envelope of an encoded routed frame in place.
 void reEnvelope(std::string& frame, const Envelope& envelope);
 
@@ -226,17 +253,15 @@ bool decodeTupleUpdateHead(std::string_view head, std::size_t frameLength, std::
                            RoutedMessage& out, std::size_t& dataAt);
 // Whether the frame's type byte names a routed message.
 bool isRoutedFrame(std::string_view frame);
-// The memory of a decoded tuple's data that its taker is done with (the
-// buffer a stored tuple gave up when the decoded data moved into it): the
-// next tuple decoded on this thread reuses it rather than allocating, so a
-// stream of small tuples allocates no data (at most kSpareDataBuffers
-// buffers of at most kSpareDataBufferBytes are kept per thread).
-void recycleDataBuffer(std::string&& buffer);
-inline constexpr std::size_t kSpareDataBuffers = 512;
-inline constexpr std::size_t kSpareDataBufferBytes = 256;
 
 // Reads the u32 length prefix at the start of `bytes` (needs 4 bytes).
-std::uint32_t frameLength(std::string_view bytes);
+// Inline: the link reads one per frame.
+inline std::uint32_t frameLength(std::string_view bytes) {
+  std::uint32_t v;
+  std::memcpy(&v, bytes.data(), 4);
+  if constexpr (std::endian::native == std::endian::little) v = __builtin_bswap32(v);
+  return v;
+}
 
 // A routed frame whose tuple data is over this PEIS's limit: what its first
 // bytes say, enough to answer it (docs/protocol.md §2.1).
