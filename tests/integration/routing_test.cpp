@@ -195,13 +195,18 @@ TEST_CASE("a PEIS that announces its leave vanishes from every table at once",
   }
   peer.send(peis::test::frameOf(peis::wire::LinkMessage{peis::wire::Leave{leaver, 1ull << 62}}));
   CHECK(waitFor([&] { return !peerOf(a, leaver) && !peerOf(b, leaver); }, kDeadline));
-  // Stale adverts of that life are refused: it does not come back. (The same
-  // advert names another PEIS: once a knows that one, it has read the whole
-  // advert and recomputed.)
+  // a closed the leaver's link at once (it did not wait to read the end of
+  // the stream).
+  CHECK(waitFor([&] { return peer.closedWithin(std::chrono::milliseconds(100)); }, kDeadline));
+  // Stale adverts of that life, from another neighbour, are refused: it does
+  // not come back. (The same advert names another PEIS: once a knows that
+  // one, it has read the whole advert and recomputed.)
+  peis::test::RawPeer neighbour(a.port());
+  neighbour.send(peis::test::helloFrame(ecology, 7779));
   peis::wire::Routes stale;
-  stale.entries.push_back(peis::wire::RouteEntry{leaver, 0, 0, 1ull << 62, 0, "raw"});
+  stale.entries.push_back(peis::wire::RouteEntry{leaver, 1, 0, 1ull << 62, 0, "raw"});
   stale.entries.push_back(peis::wire::RouteEntry{7778, 1, 0, 5, 0, "behind"});
-  peer.send(peis::test::frameOf(peis::wire::LinkMessage{stale}));
+  neighbour.send(peis::test::frameOf(peis::wire::LinkMessage{stale}));
   CHECK(waitFor([&] { return peerOf(a, 7778).has_value(); }, kDeadline));
   CHECK_FALSE(peerOf(a, leaver));
 }

@@ -267,7 +267,8 @@ std::string& Link::appendable(std::size_t bytes) {
 // let go.
 void Link::keepSpareChunk() {
   for (auto& chunk : outChunks_) {
-    if (chunk.recordRoom == kRecordBlockBytes && spareRecords_.size() < kSpareRecordBlocks) {
+    if (chunk.recordRoom == kRecordBlockBytes && spareRecords_.size() < kSpareRecordBlocks &&
+        !idleWrites_) {
       spareRecords_.push_back(std::move(chunk.records));
     }
   }
@@ -369,6 +370,7 @@ Link::Chunk& Link::newRecordBlock(std::size_t bytes) {
   } else {
     // Not value-initialised: only the sealing writes its bytes.
     chunk.records.reset(new char[chunk.recordRoom]);
+    idleWrites_ = false;  // a busy link: keep its blocks until it is idle again
   }
   return chunk;
 }
@@ -657,7 +659,8 @@ void Link::shrinkIfIdle(std::size_t readBytes) {
   writtenSinceIdle_ = 0;
   if (!writesIdle) return;
   if (spareChunk_.capacity() > kFirstChunkBytes) spareChunk_ = std::string();
-  idleWrites_ = true;  // a big chunk being written (a pong) is let go too
+  spareRecords_.clear();  // a secured stream's record blocks, kept while it ran
+  idleWrites_ = true;     // a big chunk being written (a pong) is let go too
 }
 
 // Room after inEnd_ for `want` bytes (a read's, or an opened record's), or

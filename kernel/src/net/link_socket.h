@@ -14,6 +14,10 @@
 // bytes than it had room for. Waiting by async_wait instead costs an
 // epoll_ctl per wait (and a wake-up for the socket's writable edge), which
 // is why the try is skipped this way (docs/architecture.md, "Reads").
+// One case it cannot see: a short read that also consumed the peer's FIN
+// (data and end of stream in one arrival) leaves no event for the end of
+// stream, so the link learns of the close only from its next write (the
+// ping: a reset) or the peer's Leave, which closes the link at once.
 // Uses Asio's reactor directly; with another reactor than epoll (or a
 // Boost outside 1.74-1.83) it is async_read_some.
 #pragma once

@@ -1045,12 +1045,18 @@ void Network::Impl::onLeave(Link& link, const wire::Leave& leave) {
   // What the leaving PEIS sent before its Leave (the result of the write
   // that made it quit, say) is delivered before it is gone.
   flushInbox();
-  if (!table_.onLeave(link.peer_.id, leave, SteadyClock::now())) return;
-  log::debug(self_, "PEIS " + std::to_string(leave.id) + " left");
-  for (const auto& other : links_) {  // pass it on, once
-    if (other.get() != &link && other->established_) sendLinkMessage(*other, leave);
+  const bool neighbourLeaves = leave.id == link.peer_.id;
+  if (table_.onLeave(link.peer_.id, leave, SteadyClock::now())) {
+    log::debug(self_, "PEIS " + std::to_string(leave.id) + " left");
+    for (const auto& other : links_) {  // pass it on, once
+      if (other.get() != &link && other->established_) sendLinkMessage(*other, leave);
+    }
+    recompute();  // at once: it is gone for sure
   }
-  recompute();  // at once: it is gone for sure
+  // A neighbour that leaves closes its end right after its Leave. The read
+  // that took the Leave may have taken that end of the stream too, and a
+  // drained read does not look again (link_socket.h): close ours now.
+  if (neighbourLeaves) link.close("left");
 }
 
 void Network::Impl::afterTable() {
