@@ -511,6 +511,26 @@ TEST_CASE("routing: a linked PEIS's route and life are its own link's", "[unit][
   CHECK_FALSE(table.onLeave(3, wire::Leave{424242, 1}, {}));
 }
 
+TEST_CASE("routing: a departed PEIS's last frames are taken for a while over its ways",
+          "[unit][routing]") {
+  auto table = tableOf(1);
+  for (PeisId n : {2, 3, 4}) table.linkUp(helloOf(n));
+  std::vector<wire::RouteEntry> viaTwo{{9, 1, 0, 5, 1, "p9"}};
+  table.onRoutes(2, viaTwo);
+  const auto now = RoutingTable::Time{} + 10s;
+  table.recompute(now);
+  REQUIRE(table.find(9)->nextHop == 2);
+  CHECK_FALSE(table.sentBeforeLeaving(2, 9, now, 2s));  // it has not left
+  // Its Leave comes over 3 (a flood is faster there); its last frame over 2.
+  REQUIRE(table.onLeave(3, wire::Leave{9, 5}, now));
+  table.recompute(now);
+  CHECK_FALSE(table.contains(9));
+  CHECK(table.sentBeforeLeaving(2, 9, now + 1s, 2s));
+  CHECK_FALSE(table.sentBeforeLeaving(4, 9, now + 1s, 2s));  // never a way of its frames
+  CHECK_FALSE(table.sentBeforeLeaving(2, 9, now + 2s, 2s));  // the grace is over
+  CHECK_FALSE(table.sentBeforeLeaving(2, 8, now, 2s));       // never heard of
+}
+
 TEST_CASE("routing: who may relay a source's frames", "[unit][routing]") {
   auto table = tableOf(1);
   for (PeisId n : {2, 3, 4}) table.linkUp(helloOf(n));

@@ -193,7 +193,13 @@ bool RoutingTable::onLeave(PeisId from, const wire::Leave& leave, Time now) {
       offered |= neighbour.advert.count(leave.id) != 0;
     if (!offered) return false;
   }
-  departed_[leave.id] = Departed{leave.incarnation, now};
+  Departed gone{leave.incarnation, now, {}};
+  if (neighbours_.count(leave.id)) gone.ways.push_back(leave.id);
+  if (const auto route = routes_.find(leave.id); route != routes_.end())
+    gone.ways.push_back(route->second.nextHop);
+  for (const auto& [peer, neighbour] : neighbours_)
+    if (neighbour.advert.count(leave.id)) gone.ways.push_back(peer);
+  departed_[leave.id] = std::move(gone);
   for (auto& [peer, neighbour] : neighbours_) {
     const auto entry = neighbour.advert.find(leave.id);
     if (entry != neighbour.advert.end() && entry->second.incarnation <= leave.incarnation) {
@@ -581,6 +587,14 @@ bool RoutingTable::mayRelay(PeisId neighbour, PeisId id, Time now,
     return now - r.nextHopSince < grace && offer != n->second.advert.end();
   }
   return offer != n->second.advert.end() && offer->second.hops + 1 <= r.hops;
+}
+
+bool RoutingTable::sentBeforeLeaving(PeisId neighbour, PeisId id, Time now,
+                                     std::chrono::milliseconds grace) const {
+  const auto d = departed_.find(id);
+  if (d == departed_.end() || now - d->second.at >= grace) return false;
+  const auto& ways = d->second.ways;
+  return std::find(ways.begin(), ways.end(), neighbour) != ways.end();
 }
 
 bool RoutingTable::hasAlternative(PeisId peer) const {

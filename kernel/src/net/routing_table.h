@@ -146,6 +146,12 @@ class RoutingTable {
   // linked) offers a route to it at least as short; true too for an `id`
   // without a route yet (its frames wait for it, then are asked again).
   bool mayRelay(PeisId neighbour, PeisId id, Time now, std::chrono::milliseconds grace) const;
+  // Whether a frame from `id`, which sent a Leave less than `grace` ago,
+  // may still arrive over linked PEIS `neighbour`: a frame it sent before
+  // leaving, overtaken by its Leave on another way (the last value it
+  // wrote to a subscriber further away, say).
+  bool sentBeforeLeaving(PeisId neighbour, PeisId id, Time now,
+                         std::chrono::milliseconds grace) const;
   // Route entries refused so far (over Config::maxRoutes).
   std::uint64_t refused() const { return refused_; }
   const std::map<PeisId, Route>& routes() const { return routes_; }
@@ -180,6 +186,9 @@ class RoutingTable {
   struct Departed {
     std::uint64_t incarnation = 0;
     Time at;
+    // The neighbours its frames could come over when it left: its own link,
+    // our next hop to it, and those that offered a route to it.
+    std::vector<PeisId> ways;
   };
   struct Asked {
     std::uint32_t seqno = 0;
