@@ -1186,10 +1186,10 @@ void Network::Impl::onRouted(Link& link, std::string_view frame) {
       }
       return;
     }
-    if (!table_.contains(envelope.source) && envelope.destination == self_ &&
+    if (!table_.contains(envelope.source) &&
         table_.sentBeforeLeaving(link.peer_.id, envelope.source, now, config_.relayGrace)) {
-      // Sent before its Leave, which came faster another way: taken (its
-      // route is gone, so holding it would only drop it).
+      // Sent before its Leave, which came faster another way: taken or
+      // passed on (its route is gone, so holding it would only drop it).
     } else if (!table_.contains(envelope.source)) {
       // A PEIS we have no route to yet: the adverts naming it travel one hop
       // per advert delay, its first messages can be faster. Hold them
