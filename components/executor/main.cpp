@@ -54,7 +54,8 @@ Options:
   --replans N         failures retried before giving up (default 2)
   --deploy-timeout S  seconds for a step's configuration (default 15)
   --step-timeout S    seconds for a step's action (default 600)
-  --exit              exit when the plan ends: 0 on success, 1 on failure
+  --exit              exit when the plan ends: 0 on success, 1 on failure (once
+                      the consumers acknowledged the withdrawals, at most 10 s)
   --help              this text
 
 Tuples: plan (in), task (in: goal literals), task.plan (the plan found),
