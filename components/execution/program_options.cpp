@@ -8,6 +8,17 @@
 
 namespace peis::exec {
 
+bool printedHelp(int argc, char** argv, const char* usage) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string arg = argv[i];
+    if (arg == "--help" || arg == "-h") {
+      std::cout << usage << "\n" << Options::helpText();
+      return true;
+    }
+  }
+  return false;
+}
+
 int parseProgramOptions(int argc, char** argv, const std::string& program, const char* usage,
                         const TakeOption& take, const std::set<std::string>& flags) {
   for (int i = 1; i < argc; ++i) {

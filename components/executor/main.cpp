@@ -314,6 +314,7 @@ struct Shell {
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (peis::exec::printedHelp(argc, argv, kUsage)) return 0;
   peis::Kernel kernel(argc, argv);
   Settings settings;
   if (const int code =

@@ -80,6 +80,7 @@ bool takeOption(Settings& s, const std::string& name, const std::string& value) 
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (peis::exec::printedHelp(argc, argv, kUsage)) return 0;
   peis::Kernel kernel(argc, argv);
   Settings settings;
   if (const int code =

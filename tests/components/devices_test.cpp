@@ -224,3 +224,17 @@ TEST_CASE("a frozen sensor keeps its last reading until it thaws", "[fault]") {
   home.observer->set(sensors, "fault.freeze", "off");
   CHECK(waitFor([&] { return level() >= 0 && level() < 50; }, 30s));
 }
+
+TEST_CASE("every home component's --help shows its own options and the PEIS flags",
+          "[integration]") {
+  Home home("help");
+  for (const char* program : {"peis-navigation", "peis-executor", "peis-sim-sensors",
+                              "peis-photo-camera", "peis-vacuum", "peis-talk"}) {
+    auto& help = home.start(programPath(program), {"--help"});
+    INFO(program << "\n" << help.describe());
+    REQUIRE(help.wait(30s) == 0);
+    // The program's usage says [OPTIONS]; the Kernel's own, [options].
+    CHECK(help.out().rfind(std::string("Usage: ") + program + " [OPTIONS]", 0) == 0);
+    CHECK(help.out().find("--peis-name") != std::string::npos);
+  }
+}

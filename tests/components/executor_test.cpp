@@ -88,6 +88,9 @@ TEST_CASE("the executor refuses a malformed plan and bad options", "[integration
   auto& help = home.start(programPath("peis-executor"), {"--help"});
   CHECK(help.wait(30s) == 0);
   CHECK(help.out().find("Usage: peis-executor") != std::string::npos);
+  // The program's own options, and the PEIS flags after them.
+  CHECK(help.out().find("--plan") != std::string::npos);
+  CHECK(help.out().find("--peis-name") != std::string::npos);
 }
 
 TEST_CASE("with goal tuples, the executor posts a step's needs and the configurator deploys them",

@@ -50,6 +50,7 @@ std::optional<std::array<int, 3>> colourOf(const std::string& worldYaml, const s
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (peis::exec::printedHelp(argc, argv, kUsage)) return 0;
   peis::Kernel kernel(argc, argv);
   std::string worldName = "world";
   std::string robot;

@@ -36,6 +36,7 @@ readings (stuck sensors), `off` writes the current readings again.
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (peis::exec::printedHelp(argc, argv, kUsage)) return 0;
   peis::Kernel kernel(argc, argv);
   std::string worldName = "world";
   double luxPerLevel = 2;

@@ -54,6 +54,7 @@ int speak(const std::string& program, const std::string& voice, const std::strin
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (peis::exec::printedHelp(argc, argv, kUsage)) return 0;
   peis::Kernel kernel(argc, argv);
   std::string base, outDir = ".", voice = "en", espeak = "espeak-ng";
   peis::devices::PhraseTable phrases;

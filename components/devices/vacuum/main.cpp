@@ -39,6 +39,7 @@ Options:
 }  // namespace
 
 int main(int argc, char** argv) {
+  if (peis::exec::printedHelp(argc, argv, kUsage)) return 0;
   peis::Kernel kernel(argc, argv);
   peis::nav::RobotLinkSettings link;
   link.logPrefix = "vacuum";
