@@ -11,28 +11,25 @@
 
 namespace peis {
 
+// Whether n bytes (sizeof(Word) <= n <= 2 * sizeof(Word)) at x and y are
+// equal: two overlapping word loads from each, no call.
+template <typename Word>
+[[gnu::always_inline]] inline bool sameInTwoLoads(const char* x, const char* y, std::size_t n) {
+  Word a0, a1, b0, b1;
+  std::memcpy(&a0, x, sizeof(Word));
+  std::memcpy(&b0, y, sizeof(Word));
+  std::memcpy(&a1, x + n - sizeof(Word), sizeof(Word));
+  std::memcpy(&b1, y + n - sizeof(Word), sizeof(Word));
+  return ((a0 ^ b0) | (a1 ^ b1)) == 0;
+}
+
 [[gnu::always_inline]] inline bool sameBytes(std::string_view a, std::string_view b) {
   const std::size_t n = a.size();
   if (n != b.size()) return false;
   const char* x = a.data();
   const char* y = b.data();
-  // Up to 16 bytes in two overlapping loads from each (no call).
-  if (n >= 8 && n <= 16) {
-    std::uint64_t a0, a1, b0, b1;
-    std::memcpy(&a0, x, 8);
-    std::memcpy(&b0, y, 8);
-    std::memcpy(&a1, x + n - 8, 8);
-    std::memcpy(&b1, y + n - 8, 8);
-    return ((a0 ^ b0) | (a1 ^ b1)) == 0;
-  }
-  if (n >= 4 && n < 8) {
-    std::uint32_t a0, a1, b0, b1;
-    std::memcpy(&a0, x, 4);
-    std::memcpy(&b0, y, 4);
-    std::memcpy(&a1, x + n - 4, 4);
-    std::memcpy(&b1, y + n - 4, 4);
-    return ((a0 ^ b0) | (a1 ^ b1)) == 0;
-  }
+  if (n >= 8 && n <= 16) return sameInTwoLoads<std::uint64_t>(x, y, n);
+  if (n >= 4 && n < 8) return sameInTwoLoads<std::uint32_t>(x, y, n);
   if (n < 4) {
     for (std::size_t i = 0; i < n; ++i) {
       if (x[i] != y[i]) return false;
