@@ -29,6 +29,9 @@ struct TupleSpace::Entry {
   Pattern pattern;
   unsigned mask = kOnAny;
   Callback fn;
+  // Or, for a callback that takes the tuple alone (Kernel::onChange), that
+  // function itself: one call per event rather than two.
+  ValueCallback valueFn;
   std::atomic<bool> active{true};  // cleared by removeCallback from any thread
 };
 
@@ -67,9 +70,13 @@ void checkMimetype(const std::string& mimetype) {
 
 void TupleSpace::Delivery::run(const std::function<void(std::exception_ptr)>& onError) const {
   std::exception_ptr first;
-  auto call = [&](const Callback& fn, EventKind kind) {
+  auto call = [&](const auto& fn, EventKind kind) {
     try {
-      fn(kind, *tuple_);
+      if constexpr (std::is_same_v<std::decay_t<decltype(fn)>, ValueCallback>) {
+        fn(*tuple_);
+      } else {
+        fn(kind, *tuple_);
+      }
     } catch (...) {
       if (onError) {
         onError(std::current_exception());
@@ -82,7 +89,11 @@ void TupleSpace::Delivery::run(const std::function<void(std::exception_ptr)>& on
     if (target.entry) {
       const auto& entry = *target.entry;
       if (entry.active && tuple_ && (entry.mask & static_cast<unsigned>(kind_))) {
-        call(entry.fn, kind_);
+        if (entry.valueFn) {
+          call(entry.valueFn, kind_);
+        } else {
+          call(entry.fn, kind_);
+        }
       }
       continue;
     }
@@ -228,23 +239,34 @@ void TupleSpace::recycle(std::vector<TuplePtr>& spent) {
   spent.clear();
 }
 
-TuplePtr TupleSpace::store(std::shared_ptr<Tuple>&& tuple, bool isLast) {
-  TuplePtr ptr = std::move(tuple);
-  if (isLast || isLastEntry(ptr->owner, ptr->key)) {
-    recycle(std::exchange(lastEntry_->second, ptr));
-  } else {
-    auto [it, inserted] = tuples_.try_emplace(refOf(*ptr));
-    if (inserted && ptr->owner == self_) allKeysDirty_ = true;
-    recycle(std::exchange(it->second, ptr));
+const TuplePtr& TupleSpace::store(std::shared_ptr<Tuple>&& tuple, bool isLast) {
+  // Moved, not copied, into the map: a stream's update takes no reference
+  // of its own (two atomic operations per update on the writer).
+  if (!(isLast || isLastEntry(tuple->owner, tuple->key))) {
+    auto [it, inserted] = tuples_.try_emplace(refOf(*tuple));
+    if (inserted && tuple->owner == self_) allKeysDirty_ = true;
     lastEntry_ = it;
     hasLastEntry_ = true;
   }
-  queueEvent(EventKind::Changed, ptr);
-  return ptr;
+  recycle(std::exchange(lastEntry_->second, TuplePtr(std::move(tuple))));
+  // queueEvent leaves tuples_ as it is: the reference stays valid.
+  const TuplePtr& stored = lastEntry_->second;
+  queueEvent(EventKind::Changed, stored);
+  return stored;
 }
 
 TuplePtr TupleSpace::set(std::string_view key, std::string data, const WriteOptions& options,
                          PeisId creator) {
+  return stamp(key, std::move(data), options, creator);
+}
+
+const Tuple& TupleSpace::write(std::string_view key, std::string data, const WriteOptions& options,
+                               PeisId creator) {
+  return *stamp(key, std::move(data), options, creator);
+}
+
+const TuplePtr& TupleSpace::stamp(std::string_view key, std::string data,
+                                  const WriteOptions& options, PeisId creator) {
   const bool isLast = isLastEntry(self_, key);
   if (!isLast) validateKey(key);  // a key already held was checked before
   checkData(data.size());
@@ -600,25 +622,42 @@ TuplePtr TupleSpace::getIndirect(PeisId owner, std::string_view metaKey) const {
 }
 
 CallbackId TupleSpace::addCallback(const Pattern& pattern, unsigned mask, Callback fn) {
+  return addEntry(pattern, mask, std::move(fn), nullptr);
+}
+
+CallbackId TupleSpace::addValueCallback(const Pattern& pattern, unsigned mask, ValueCallback fn) {
+  return addEntry(pattern, mask, nullptr, std::move(fn));
+}
+
+CallbackId TupleSpace::addEntry(const Pattern& pattern, unsigned mask, Callback fn,
+                                ValueCallback valueFn) {
   const auto id = nextCallbackId_++;
   auto entry = std::make_shared<Entry>();
   entry->pattern = pattern;
   entry->mask = mask;
   entry->fn = std::move(fn);
+  entry->valueFn = std::move(valueFn);
   callbacks_.emplace(id, std::move(entry));
   matchCache_.valid = false;
   return id;
 }
 
 CallbackId TupleSpace::addCallbackWithHeld(const Pattern& pattern, Callback fn) {
-  const auto id = addCallback(pattern, kOnChange, std::move(fn));
+  return queueHeld(pattern, addCallback(pattern, kOnChange, std::move(fn)));
+}
+
+CallbackId TupleSpace::addValueCallbackWithHeld(const Pattern& pattern, ValueCallback fn) {
+  return queueHeld(pattern, addValueCallback(pattern, kOnChange, std::move(fn)));
+}
+
+CallbackId TupleSpace::queueHeld(const Pattern& pattern, CallbackId id) {
   const auto& entry = callbacks_.at(id);
   for (const auto& tuple : find(pattern)) {
     Delivery delivery;
     delivery.kind_ = EventKind::Changed;
     delivery.tuple_ = tuple;
     if (!indirects_.empty()) delivery.incarnation_ = lifeOf(tuple->owner);
-    delivery.targets_.emplace_back(entry);
+    delivery.targets_.emplace_back(entry.get());
     queue_.push_back(std::move(delivery));
   }
   return id;
@@ -640,6 +679,9 @@ CallbackId TupleSpace::addIndirectCallback(PeisId metaOwner, std::string_view me
 bool TupleSpace::removeCallback(CallbackId id) {
   if (auto it = callbacks_.find(id); it != callbacks_.end()) {
     it->second->active = false;
+    // Deliveries queued or taken until now may point to it: it is kept
+    // until they ran (deliveriesRan).
+    retired_.push_back(Retired{taken_ + (queue_.size() - queueHead_), std::move(it->second)});
     callbacks_.erase(it);
     matchCache_ = MatchCache();
     return true;
@@ -713,7 +755,7 @@ void TupleSpace::queueEvent(EventKind kind, const TuplePtr& tuple) {
   };
   for (const auto& entry : candidates(kind, *tuple)) {
     if (entry->pattern.matchesBeyondOwnerAndKey(*tuple)) {  // its creator, mimetype or data filter
-      deliver().targets_.emplace_back(entry);
+      deliver().targets_.emplace_back(entry.get());
     }
   }
   if (indirects_.empty()) return;
@@ -735,6 +777,7 @@ static_assert(std::is_nothrow_move_constructible_v<TupleSpace::Delivery>,
 
 std::optional<TupleSpace::Delivery> TupleSpace::nextDelivery() {
   if (queueHead_ == queue_.size()) return std::nullopt;
+  ++taken_;
   std::optional<Delivery> delivery(std::move(queue_[queueHead_++]));
   if (queueHead_ == queue_.size()) {
     queue_.clear();
@@ -744,6 +787,7 @@ std::optional<TupleSpace::Delivery> TupleSpace::nextDelivery() {
 }
 
 void TupleSpace::takeAllDeliveries(std::vector<Delivery>& out) {
+  taken_ += queue_.size() - queueHead_;
   if (out.empty() && queueHead_ == 0) {
     out.swap(queue_);
     return;
@@ -751,6 +795,13 @@ void TupleSpace::takeAllDeliveries(std::vector<Delivery>& out) {
   for (auto i = queueHead_; i < queue_.size(); ++i) out.push_back(std::move(queue_[i]));
   queue_.clear();
   queueHead_ = 0;
+}
+
+void TupleSpace::deliveriesRan() {
+  // Those retired before the last delivery taken: no delivery left points to them.
+  const auto done = std::remove_if(retired_.begin(), retired_.end(),
+                                   [&](const Retired& r) { return r.before <= taken_; });
+  retired_.erase(done, retired_.end());
 }
 
 std::size_t TupleSpace::dispatch() {

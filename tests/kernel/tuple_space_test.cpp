@@ -7,6 +7,7 @@
 #include <catch2/catch.hpp>
 #include <chrono>
 #include <cstdint>
+#include <memory>
 #include <ostream>
 #include <stdexcept>
 #include <string>
@@ -823,6 +824,52 @@ TEST_CASE("removeCallback stops a callback, even during a dispatch", "[unit][tup
   }
 
   CHECK_FALSE(space.removeCallback(9999));
+}
+
+TEST_CASE("a removed callback is kept until the deliveries taken before ran",
+          "[unit][tuplespace]") {
+  ManualClock clock;
+  TupleSpace space(kSelf, [&] { return clock.now; });
+  // Its function owns `alive`: the count says whether the function exists.
+  auto alive = std::make_shared<int>(0);
+  std::vector<std::string> seen;
+  const auto id = space.addValueCallback(
+      Pattern(), peis::kOnChange, [&seen, alive](const Tuple& t) { seen.push_back(t.data); });
+  space.set("k", "1");
+  std::vector<TupleSpace::Delivery> taken;
+  space.takeAllDeliveries(taken);
+  REQUIRE(taken.size() == 1);
+  space.set("k", "2");  // queued, not taken yet
+  CHECK(space.removeCallback(id));
+  CHECK(alive.use_count() == 2);  // a delivery taken may still point to it
+  space.deliveriesRan();          // the queued one was not taken yet
+  CHECK(alive.use_count() == 2);
+  for (const auto& delivery : taken) delivery.run();
+  CHECK(seen.empty());  // removed before its delivery ran
+  taken.clear();
+  space.takeAllDeliveries(taken);
+  for (const auto& delivery : taken) delivery.run();
+  taken.clear();
+  space.deliveriesRan();
+  CHECK(alive.use_count() == 1);  // let go
+  CHECK(seen.empty());
+}
+
+TEST_CASE("a value callback gets every change of what it matches", "[unit][tuplespace]") {
+  ManualClock clock;
+  TupleSpace space(kSelf, [&] { return clock.now; });
+  std::vector<std::string> seen;
+  space.addValueCallback(Pattern("k"), peis::kOnChange,
+                         [&](const Tuple& t) { seen.push_back(t.data); });
+  space.set("k", "1");
+  space.set("other", "x");
+  space.set("k", "2");
+  CHECK(space.dispatch() == 2);
+  CHECK(seen == std::vector<std::string>{"1", "2"});
+  space.addValueCallbackWithHeld(Pattern("k"),
+                                 [&](const Tuple& t) { seen.push_back("held " + t.data); });
+  space.dispatch();
+  CHECK(seen.back() == "held 2");
 }
 
 TEST_CASE("a callback may write; the nested event runs later in the same dispatch",
