@@ -136,6 +136,7 @@ void TupleSpace::changeSelf(PeisId newId) {
   if (!isValidPeisId(newId)) {
     throw Error(ErrorCode::InvalidArgument, "invalid PEIS id " + std::to_string(newId));
   }
+  settle();  // tuples leave the map below
   hasLastEntry_ = false;
   std::vector<Tuple> own;
   for (auto it = tuples_.lower_bound(TupleRef{self_, ""});
@@ -248,11 +249,27 @@ const TuplePtr& TupleSpace::store(std::shared_ptr<Tuple>&& tuple, bool isLast) {
     lastEntry_ = it;
     hasLastEntry_ = true;
   }
-  recycle(std::exchange(lastEntry_->second, TuplePtr(std::move(tuple))));
+  auto& slot = lastEntry_->second;
+  auto replaced = release(slot);
+  slot = std::move(tuple);
+  recycle(std::move(replaced));
   // queueEvent leaves tuples_ as it is: the reference stays valid.
-  const TuplePtr& stored = lastEntry_->second;
-  queueEvent(EventKind::Changed, stored);
-  return stored;
+  queueEvent(EventKind::Changed, slot, &slot);
+  return slot;
+}
+
+void TupleSpace::settle() {
+  if (!unownedSlot_) return;
+  queue_[unownedIndex_].tuple_ = *unownedSlot_;
+  unownedSlot_ = nullptr;
+}
+
+TuplePtr TupleSpace::release(TuplePtr& slot) {
+  if (unownedSlot_ != &slot) return std::move(slot);
+  // The delivery of the value leaving takes the map's reference.
+  queue_[unownedIndex_].tuple_ = std::move(slot);
+  unownedSlot_ = nullptr;
+  return nullptr;
 }
 
 TuplePtr TupleSpace::set(std::string_view key, std::string data, const WriteOptions& options,
@@ -359,6 +376,7 @@ void TupleSpace::remove(std::map<TupleRef, TuplePtr>::iterator it, std::uint64_t
     last.ts_write = clock_();
     allKeysDirty_ = true;
   }
+  release(it->second);  // a delivery of it still queued keeps it
   tuples_.erase(it);
   queueEvent(EventKind::Deleted, newTuple(std::move(last)));
 }
@@ -404,8 +422,10 @@ bool TupleSpace::accept(Tuple&& tuple, std::uint64_t incarnation) {
   hasLastEntry_ = true;
   if (it->second->seqno >= tuple.seqno) return false;
   // One lookup: replaced in place.
-  recycle(std::exchange(it->second, TuplePtr(newTuple(std::move(tuple)))));
-  queueEvent(EventKind::Changed, it->second);
+  auto replaced = release(it->second);
+  it->second = newTuple(std::move(tuple));
+  recycle(std::move(replaced));
+  queueEvent(EventKind::Changed, it->second, &it->second);
   return true;
 }
 
@@ -738,7 +758,7 @@ const std::vector<std::shared_ptr<TupleSpace::Entry>>& TupleSpace::candidates(Ev
   return cache.entries;
 }
 
-void TupleSpace::queueEvent(EventKind kind, const TuplePtr& tuple) {
+void TupleSpace::queueEvent(EventKind kind, const TuplePtr& tuple, TuplePtr* storedIn) {
   if (observer_) observer_(kind, tuple);
   // Built in place at the end of the queue once something matches (an
   // event nothing matches, such as a stream's update nobody here watches,
@@ -746,9 +766,18 @@ void TupleSpace::queueEvent(EventKind kind, const TuplePtr& tuple) {
   Delivery* delivery = nullptr;
   auto deliver = [&]() -> Delivery& {
     if (!delivery) {
+      if (storedIn) settle();  // at most one delivery without a reference
       delivery = &queue_.emplace_back();
       delivery->kind_ = kind;
-      delivery->tuple_ = tuple;
+      if (storedIn) {
+        // No reference (an atomic increment, and a decrement once the
+        // value is replaced): the map's is handed over when the value
+        // leaves it (release), or copied when the delivery is taken.
+        unownedSlot_ = storedIn;
+        unownedIndex_ = queue_.size() - 1;
+      } else {
+        delivery->tuple_ = tuple;
+      }
       if (!indirects_.empty()) delivery->incarnation_ = lifeOf(tuple->owner);
     }
     return *delivery;
@@ -777,6 +806,7 @@ static_assert(std::is_nothrow_move_constructible_v<TupleSpace::Delivery>,
 
 std::optional<TupleSpace::Delivery> TupleSpace::nextDelivery() {
   if (queueHead_ == queue_.size()) return std::nullopt;
+  settle();
   ++taken_;
   std::optional<Delivery> delivery(std::move(queue_[queueHead_++]));
   if (queueHead_ == queue_.size()) {
@@ -787,6 +817,7 @@ std::optional<TupleSpace::Delivery> TupleSpace::nextDelivery() {
 }
 
 void TupleSpace::takeAllDeliveries(std::vector<Delivery>& out) {
+  settle();
   taken_ += queue_.size() - queueHead_;
   if (out.empty() && queueHead_ == 0) {
     out.swap(queue_);

@@ -272,7 +272,19 @@ class TupleSpace {
   // Returns the stored pointer, held in tuples_.
   const TuplePtr& store(std::shared_ptr<Tuple>&& tuple, bool isLast = false);
   void remove(std::map<TupleRef, TuplePtr>::iterator it, std::uint64_t seqno);
-  void queueEvent(EventKind kind, const TuplePtr& tuple);
+  // `storedIn`: the map's slot that holds `tuple` (a value stored now).
+  void queueEvent(EventKind kind, const TuplePtr& tuple, TuplePtr* storedIn = nullptr);
+  // The delivery queued last for a value just stored may hold no reference
+  // to it (queue_[unownedIndex_], whose tuple is *unownedSlot_): a stream's
+  // value is then replaced, and its delivery run, without touching its
+  // reference count. settle() gives that delivery its own reference
+  // (before deliveries are taken, or tuples leave the map otherwise);
+  // release() takes a slot's pointer before the slot is overwritten or
+  // erased, handing it to that delivery if it is the one.
+  void settle();
+  TuplePtr release(TuplePtr& slot);
+  TuplePtr* unownedSlot_ = nullptr;
+  std::size_t unownedIndex_ = 0;
   // The callbacks whose mask, owner and key match an event's; the matching
   // of the last event's owner, key and kind is kept (a stream repeats one
   // key) until the callbacks change.
