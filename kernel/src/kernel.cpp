@@ -123,7 +123,7 @@ Tuple Kernel::set(std::string_view key, std::string data, const WriteOptions& op
 }
 
 std::uint64_t Kernel::publish(std::string_view key, std::string data, const WriteOptions& options) {
-  return impl_->setOwn(key, std::move(data), options)->seqno;
+  return impl_->publishOwn(key, std::move(data), options);
 }
 
 namespace {
@@ -388,22 +388,19 @@ PeisId Kernel::resolveOwner(std::string_view idOrName) const {
 
 CallbackHandle Kernel::onChange(const Pattern& pattern, TupleCallback fn) {
   return impl_->mutate([&](TupleSpace& s, Replication&) {
-    return s.addCallback(pattern, kOnChange,
-                         [fn = std::move(fn)](EventKind, const Tuple& t) { fn(t); });
+    return s.addValueCallback(pattern, kOnChange, std::move(fn));
   });
 }
 
 CallbackHandle Kernel::onDelete(const Pattern& pattern, TupleCallback fn) {
   return impl_->mutate([&](TupleSpace& s, Replication&) {
-    return s.addCallback(pattern, kOnDelete,
-                         [fn = std::move(fn)](EventKind, const Tuple& t) { fn(t); });
+    return s.addValueCallback(pattern, kOnDelete, std::move(fn));
   });
 }
 
 CallbackHandle Kernel::onValue(const Pattern& pattern, TupleCallback fn) {
   return impl_->mutate([&](TupleSpace& s, Replication&) {
-    return s.addCallbackWithHeld(pattern,
-                                 [fn = std::move(fn)](EventKind, const Tuple& t) { fn(t); });
+    return s.addValueCallbackWithHeld(pattern, std::move(fn));
   });
 }
 

@@ -140,4 +140,19 @@ TuplePtr Kernel::Impl::setOwn(std::string_view key, std::string data,
   return tuple;
 }
 
+std::uint64_t Kernel::Impl::publishOwn(std::string_view key, std::string data,
+                                       const WriteOptions& writeOptions) {
+  bool backedUp = false;
+  Timestamp expire = kNoTime;
+  const auto seqno = mutate([&](TupleSpace& s, Replication& r) {
+    const Tuple& stored = s.write(key, std::move(data), writeOptions);
+    expire = stored.ts_expire;
+    backedUp = r.outboxBytes() >= kWriterWaitAbove;
+    return stored.seqno;
+  });
+  if (expire != kNoTime) boost::asio::post(io, [this, expire] { scheduleExpiry(expire); });
+  if (backedUp && std::this_thread::get_id() != threadId) awaitOutbox();
+  return seqno;
+}
+
 }  // namespace peis

@@ -132,6 +132,10 @@ struct Kernel::Impl {
   // Kernel::set and Kernel::publish of an own tuple: the stored tuple.
   TuplePtr setOwn(std::string_view key, std::string data, const WriteOptions& writeOptions)
       EXCLUDES(mu);
+  // Kernel::publish: the same, returning only the seqno (the stored tuple
+  // is read under the lock, no reference to it is taken).
+  std::uint64_t publishOwn(std::string_view key, std::string data, const WriteOptions& writeOptions)
+      EXCLUDES(mu);
   void publishSpecialTuples() EXCLUDES(mu);
   void requestQuit(std::string reason) EXCLUDES(quitMu);
   // A callback, timer function, posted function or completion threw.

@@ -181,6 +181,7 @@ void Kernel::Impl::drain() {  // kernel thread: deliveries taken from the space,
       batchNext = 0;
       MutexLock lock(mu);
       space.recycle(spentTuples);      // their storage is reused for the next tuples
+      space.deliveriesRan();           // the callbacks removed meanwhile can go
       space.takeAllDeliveries(batch);  // a swap: one lock for all queued
       if (batch.empty()) {
         if (space.allKeysDirty()) {
@@ -296,6 +297,7 @@ void Kernel::Impl::leaseLoop() {  // kernel thread
     {
       MutexLock lock(mu);
       replication.renew();
+      replication.outbox().trimSpares();  // a stream's spare entries, until it needs them again
       if (replication.expireLeases(std::chrono::steady_clock::now())) refreshSubscribersTuple();
       afterMutation();
     }

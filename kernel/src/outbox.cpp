@@ -218,10 +218,13 @@ void Outbox::changeSelf(PeisId self) {
 }
 
 void Outbox::recycleFrames(std::string&& frames) {
-  constexpr std::size_t kSpares = 4;
-  if (spareFrames_.size() >= kSpares || frames.capacity() > 2 * kFramesPerEntryBytes) return;
+  if (spareFrames_.size() >= kSpareEntries || frames.capacity() > 2 * kFramesPerEntryBytes) return;
   frames.clear();
   spareFrames_.push_back(std::move(frames));
+}
+
+void Outbox::trimSpares() {
+  if (spareFrames_.size() > kSpareEntriesIdle) spareFrames_.resize(kSpareEntriesIdle);
 }
 
 }  // namespace peis

@@ -29,6 +29,9 @@ struct TupleSpace::Entry {
   Pattern pattern;
   unsigned mask = kOnAny;
   Callback fn;
+  // Or, for a callback that takes the tuple alone (Kernel::onChange), that
+  // function itself: one call per event rather than two.
+  ValueCallback valueFn;
   std::atomic<bool> active{true};  // cleared by removeCallback from any thread
 };
 
@@ -67,9 +70,13 @@ void checkMimetype(const std::string& mimetype) {
 
 void TupleSpace::Delivery::run(const std::function<void(std::exception_ptr)>& onError) const {
   std::exception_ptr first;
-  auto call = [&](const Callback& fn, EventKind kind) {
+  auto call = [&](const auto& fn, EventKind kind) {
     try {
-      fn(kind, *tuple_);
+      if constexpr (std::is_same_v<std::decay_t<decltype(fn)>, ValueCallback>) {
+        fn(*tuple_);
+      } else {
+        fn(kind, *tuple_);
+      }
     } catch (...) {
       if (onError) {
         onError(std::current_exception());
@@ -82,7 +89,11 @@ void TupleSpace::Delivery::run(const std::function<void(std::exception_ptr)>& on
     if (target.entry) {
       const auto& entry = *target.entry;
       if (entry.active && tuple_ && (entry.mask & static_cast<unsigned>(kind_))) {
-        call(entry.fn, kind_);
+        if (entry.valueFn) {
+          call(entry.valueFn, kind_);
+        } else {
+          call(entry.fn, kind_);
+        }
       }
       continue;
     }
@@ -125,6 +136,7 @@ void TupleSpace::changeSelf(PeisId newId) {
   if (!isValidPeisId(newId)) {
     throw Error(ErrorCode::InvalidArgument, "invalid PEIS id " + std::to_string(newId));
   }
+  settle();  // tuples leave the map below
   hasLastEntry_ = false;
   std::vector<Tuple> own;
   for (auto it = tuples_.lower_bound(TupleRef{self_, ""});
@@ -228,23 +240,50 @@ void TupleSpace::recycle(std::vector<TuplePtr>& spent) {
   spent.clear();
 }
 
-TuplePtr TupleSpace::store(std::shared_ptr<Tuple>&& tuple, bool isLast) {
-  TuplePtr ptr = std::move(tuple);
-  if (isLast || isLastEntry(ptr->owner, ptr->key)) {
-    recycle(std::exchange(lastEntry_->second, ptr));
-  } else {
-    auto [it, inserted] = tuples_.try_emplace(refOf(*ptr));
-    if (inserted && ptr->owner == self_) allKeysDirty_ = true;
-    recycle(std::exchange(it->second, ptr));
+const TuplePtr& TupleSpace::store(std::shared_ptr<Tuple>&& tuple, bool isLast) {
+  // Moved, not copied, into the map: a stream's update takes no reference
+  // of its own (two atomic operations per update on the writer).
+  if (!(isLast || isLastEntry(tuple->owner, tuple->key))) {
+    auto [it, inserted] = tuples_.try_emplace(refOf(*tuple));
+    if (inserted && tuple->owner == self_) allKeysDirty_ = true;
     lastEntry_ = it;
     hasLastEntry_ = true;
   }
-  queueEvent(EventKind::Changed, ptr);
-  return ptr;
+  auto& slot = lastEntry_->second;
+  auto replaced = release(slot);
+  slot = std::move(tuple);
+  recycle(std::move(replaced));
+  // queueEvent leaves tuples_ as it is: the reference stays valid.
+  queueEvent(EventKind::Changed, slot, &slot);
+  return slot;
+}
+
+void TupleSpace::settle() {
+  if (!unownedSlot_) return;
+  queue_[unownedIndex_].tuple_ = *unownedSlot_;
+  unownedSlot_ = nullptr;
+}
+
+TuplePtr TupleSpace::release(TuplePtr& slot) {
+  if (unownedSlot_ != &slot) return std::move(slot);
+  // The delivery of the value leaving takes the map's reference.
+  queue_[unownedIndex_].tuple_ = std::move(slot);
+  unownedSlot_ = nullptr;
+  return nullptr;
 }
 
 TuplePtr TupleSpace::set(std::string_view key, std::string data, const WriteOptions& options,
                          PeisId creator) {
+  return stamp(key, std::move(data), options, creator);
+}
+
+const Tuple& TupleSpace::write(std::string_view key, std::string data, const WriteOptions& options,
+                               PeisId creator) {
+  return *stamp(key, std::move(data), options, creator);
+}
+
+const TuplePtr& TupleSpace::stamp(std::string_view key, std::string data,
+                                  const WriteOptions& options, PeisId creator) {
   const bool isLast = isLastEntry(self_, key);
   if (!isLast) validateKey(key);  // a key already held was checked before
   checkData(data.size());
@@ -337,6 +376,7 @@ void TupleSpace::remove(std::map<TupleRef, TuplePtr>::iterator it, std::uint64_t
     last.ts_write = clock_();
     allKeysDirty_ = true;
   }
+  release(it->second);  // a delivery of it still queued keeps it
   tuples_.erase(it);
   queueEvent(EventKind::Deleted, newTuple(std::move(last)));
 }
@@ -382,8 +422,10 @@ bool TupleSpace::accept(Tuple&& tuple, std::uint64_t incarnation) {
   hasLastEntry_ = true;
   if (it->second->seqno >= tuple.seqno) return false;
   // One lookup: replaced in place.
-  recycle(std::exchange(it->second, TuplePtr(newTuple(std::move(tuple)))));
-  queueEvent(EventKind::Changed, it->second);
+  auto replaced = release(it->second);
+  it->second = newTuple(std::move(tuple));
+  recycle(std::move(replaced));
+  queueEvent(EventKind::Changed, it->second, &it->second);
   return true;
 }
 
@@ -600,25 +642,42 @@ TuplePtr TupleSpace::getIndirect(PeisId owner, std::string_view metaKey) const {
 }
 
 CallbackId TupleSpace::addCallback(const Pattern& pattern, unsigned mask, Callback fn) {
+  return addEntry(pattern, mask, std::move(fn), nullptr);
+}
+
+CallbackId TupleSpace::addValueCallback(const Pattern& pattern, unsigned mask, ValueCallback fn) {
+  return addEntry(pattern, mask, nullptr, std::move(fn));
+}
+
+CallbackId TupleSpace::addEntry(const Pattern& pattern, unsigned mask, Callback fn,
+                                ValueCallback valueFn) {
   const auto id = nextCallbackId_++;
   auto entry = std::make_shared<Entry>();
   entry->pattern = pattern;
   entry->mask = mask;
   entry->fn = std::move(fn);
+  entry->valueFn = std::move(valueFn);
   callbacks_.emplace(id, std::move(entry));
   matchCache_.valid = false;
   return id;
 }
 
 CallbackId TupleSpace::addCallbackWithHeld(const Pattern& pattern, Callback fn) {
-  const auto id = addCallback(pattern, kOnChange, std::move(fn));
+  return queueHeld(pattern, addCallback(pattern, kOnChange, std::move(fn)));
+}
+
+CallbackId TupleSpace::addValueCallbackWithHeld(const Pattern& pattern, ValueCallback fn) {
+  return queueHeld(pattern, addValueCallback(pattern, kOnChange, std::move(fn)));
+}
+
+CallbackId TupleSpace::queueHeld(const Pattern& pattern, CallbackId id) {
   const auto& entry = callbacks_.at(id);
   for (const auto& tuple : find(pattern)) {
     Delivery delivery;
     delivery.kind_ = EventKind::Changed;
     delivery.tuple_ = tuple;
     if (!indirects_.empty()) delivery.incarnation_ = lifeOf(tuple->owner);
-    delivery.targets_.emplace_back(entry);
+    delivery.targets_.emplace_back(entry.get());
     queue_.push_back(std::move(delivery));
   }
   return id;
@@ -640,6 +699,9 @@ CallbackId TupleSpace::addIndirectCallback(PeisId metaOwner, std::string_view me
 bool TupleSpace::removeCallback(CallbackId id) {
   if (auto it = callbacks_.find(id); it != callbacks_.end()) {
     it->second->active = false;
+    // Deliveries queued or taken until now may point to it: it is kept
+    // until they ran (deliveriesRan).
+    retired_.push_back(Retired{taken_ + (queue_.size() - queueHead_), std::move(it->second)});
     callbacks_.erase(it);
     matchCache_ = MatchCache();
     return true;
@@ -696,7 +758,7 @@ const std::vector<std::shared_ptr<TupleSpace::Entry>>& TupleSpace::candidates(Ev
   return cache.entries;
 }
 
-void TupleSpace::queueEvent(EventKind kind, const TuplePtr& tuple) {
+void TupleSpace::queueEvent(EventKind kind, const TuplePtr& tuple, TuplePtr* storedIn) {
   if (observer_) observer_(kind, tuple);
   // Built in place at the end of the queue once something matches (an
   // event nothing matches, such as a stream's update nobody here watches,
@@ -704,16 +766,25 @@ void TupleSpace::queueEvent(EventKind kind, const TuplePtr& tuple) {
   Delivery* delivery = nullptr;
   auto deliver = [&]() -> Delivery& {
     if (!delivery) {
+      if (storedIn) settle();  // at most one delivery without a reference
       delivery = &queue_.emplace_back();
       delivery->kind_ = kind;
-      delivery->tuple_ = tuple;
+      if (storedIn) {
+        // No reference (an atomic increment, and a decrement once the
+        // value is replaced): the map's is handed over when the value
+        // leaves it (release), or copied when the delivery is taken.
+        unownedSlot_ = storedIn;
+        unownedIndex_ = queue_.size() - 1;
+      } else {
+        delivery->tuple_ = tuple;
+      }
       if (!indirects_.empty()) delivery->incarnation_ = lifeOf(tuple->owner);
     }
     return *delivery;
   };
   for (const auto& entry : candidates(kind, *tuple)) {
     if (entry->pattern.matchesBeyondOwnerAndKey(*tuple)) {  // its creator, mimetype or data filter
-      deliver().targets_.emplace_back(entry);
+      deliver().targets_.emplace_back(entry.get());
     }
   }
   if (indirects_.empty()) return;
@@ -735,6 +806,8 @@ static_assert(std::is_nothrow_move_constructible_v<TupleSpace::Delivery>,
 
 std::optional<TupleSpace::Delivery> TupleSpace::nextDelivery() {
   if (queueHead_ == queue_.size()) return std::nullopt;
+  settle();
+  ++taken_;
   std::optional<Delivery> delivery(std::move(queue_[queueHead_++]));
   if (queueHead_ == queue_.size()) {
     queue_.clear();
@@ -744,6 +817,8 @@ std::optional<TupleSpace::Delivery> TupleSpace::nextDelivery() {
 }
 
 void TupleSpace::takeAllDeliveries(std::vector<Delivery>& out) {
+  settle();
+  taken_ += queue_.size() - queueHead_;
   if (out.empty() && queueHead_ == 0) {
     out.swap(queue_);
     return;
@@ -751,6 +826,13 @@ void TupleSpace::takeAllDeliveries(std::vector<Delivery>& out) {
   for (auto i = queueHead_; i < queue_.size(); ++i) out.push_back(std::move(queue_[i]));
   queue_.clear();
   queueHead_ = 0;
+}
+
+void TupleSpace::deliveriesRan() {
+  // Those retired before the last delivery taken: no delivery left points to them.
+  const auto done = std::remove_if(retired_.begin(), retired_.end(),
+                                   [&](const Retired& r) { return r.before <= taken_; });
+  retired_.erase(done, retired_.end());
 }
 
 std::size_t TupleSpace::dispatch() {

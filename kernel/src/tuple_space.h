@@ -36,6 +36,7 @@ enum class EventKind : std::uint8_t { Changed = 1, Deleted = 2 };
 enum EventMask : unsigned { kOnChange = 1, kOnDelete = 2, kOnAny = 3 };
 
 using Callback = std::function<void(EventKind, const Tuple&)>;
+using ValueCallback = std::function<void(const Tuple&)>;
 using CallbackId = std::uint64_t;
 
 struct SpaceLimits {
@@ -62,6 +63,11 @@ class TupleSpace {
   // `creator` 0 means self. Throws Error(InvalidKey / TooLarge).
   TuplePtr set(std::string_view key, std::string data, const WriteOptions& options = {},
                PeisId creator = 0);
+  // The same, returning the stored tuple itself rather than a reference
+  // to share (no reference count touched): valid only until the space is
+  // changed again, so read under the same serialisation.
+  const Tuple& write(std::string_view key, std::string data, const WriteOptions& options = {},
+                     PeisId creator = 0);
   // The kernel's own kernel.* tuples: like set(), exempt from the data limit.
   TuplePtr setKernelTuple(std::string_view key, std::string data);
   // Appends `data` to the current value atomically; creates the tuple when
@@ -165,10 +171,13 @@ class TupleSpace {
 
   // --- callbacks --------------------------------------------------------------
   CallbackId addCallback(const Pattern& pattern, unsigned mask, Callback fn);
+  // The same for a function of the tuple alone (called without a wrapper).
+  CallbackId addValueCallback(const Pattern& pattern, unsigned mask, ValueCallback fn);
   // The same, and queues at once a change event for this callback alone
   // with every matching tuple held now: under the lock, so no value is
   // missed between those and the changes after, and none comes twice.
   CallbackId addCallbackWithHeld(const Pattern& pattern, Callback fn);
+  CallbackId addValueCallbackWithHeld(const Pattern& pattern, ValueCallback fn);
   // Follows meta tuple (owner, metaKey): calls `fn` for changes of whatever
   // it points to, and, when it is re-pointed, at once with the new target's
   // current value. Never delivers a target's seqno twice or out of order.
@@ -203,11 +212,15 @@ class TupleSpace {
     friend class TupleSpace;
     // One callback to run; held by value (almost every event matches one).
     struct Target {
-      explicit Target(std::shared_ptr<Entry> callback) : entry(std::move(callback)) {}
+      explicit Target(Entry* callback) : entry(callback) {}
       Target(std::shared_ptr<Indirect> callback,
              std::shared_ptr<const std::optional<TupleRef>> to = nullptr)
           : indirect(std::move(callback)), retargetTo(std::move(to)) {}
-      std::shared_ptr<Entry> entry;
+      // Not a shared pointer: the space keeps a removed callback until the
+      // deliveries that may point to it ran (deliveriesRan), so a delivery
+      // touches no reference count (two atomic operations per event, the
+      // dearest part of a stream's delivery).
+      Entry* entry = nullptr;
       std::shared_ptr<Indirect> indirect;
       // Set: the event re-points `indirect` there (nullopt: nowhere).
       std::shared_ptr<const std::optional<TupleRef>> retargetTo;
@@ -222,6 +235,11 @@ class TupleSpace {
   // a swap, nothing is moved; its memory becomes the queue's).
   void takeAllDeliveries(std::vector<Delivery>& out);
   bool hasPendingDeliveries() const { return queueHead_ < queue_.size(); }
+  // Says that every delivery taken so far (takeAllDeliveries, nextDelivery)
+  // has run or will never run: the callbacks removed before they were
+  // taken are let go. Until then a delivery may point to a removed one
+  // (dispatch() does not call it: a caller may still hold a delivery).
+  void deliveriesRan();
   // The tuples of deliveries that ran, handed back by whoever ran them:
   // the storage of those nobody else holds any more is reused for the next
   // tuples stored (a stream then allocates no tuple per update). Clears
@@ -248,9 +266,25 @@ class TupleSpace {
   void recycle(TuplePtr&& tuple);
   std::vector<std::shared_ptr<Tuple>> spare_;
   // `isLast`: the caller found the tuple's key to be lastEntry_'s.
-  TuplePtr store(std::shared_ptr<Tuple>&& tuple, bool isLast = false);
+  // set() and write(): stamps and stores; returns the stored pointer.
+  const TuplePtr& stamp(std::string_view key, std::string data, const WriteOptions& options,
+                        PeisId creator);
+  // Returns the stored pointer, held in tuples_.
+  const TuplePtr& store(std::shared_ptr<Tuple>&& tuple, bool isLast = false);
   void remove(std::map<TupleRef, TuplePtr>::iterator it, std::uint64_t seqno);
-  void queueEvent(EventKind kind, const TuplePtr& tuple);
+  // `storedIn`: the map's slot that holds `tuple` (a value stored now).
+  void queueEvent(EventKind kind, const TuplePtr& tuple, TuplePtr* storedIn = nullptr);
+  // The delivery queued last for a value just stored may hold no reference
+  // to it (queue_[unownedIndex_], whose tuple is *unownedSlot_): a stream's
+  // value is then replaced, and its delivery run, without touching its
+  // reference count. settle() gives that delivery its own reference
+  // (before deliveries are taken, or tuples leave the map otherwise);
+  // release() takes a slot's pointer before the slot is overwritten or
+  // erased, handing it to that delivery if it is the one.
+  void settle();
+  TuplePtr release(TuplePtr& slot);
+  TuplePtr* unownedSlot_ = nullptr;
+  std::size_t unownedIndex_ = 0;
   // The callbacks whose mask, owner and key match an event's; the matching
   // of the last event's owner, key and kind is kept (a stream repeats one
   // key) until the callbacks change.
@@ -263,6 +297,9 @@ class TupleSpace {
     std::vector<std::shared_ptr<Entry>> entries;
   };
   MatchCache matchCache_;
+  CallbackId addEntry(const Pattern& pattern, unsigned mask, Callback fn, ValueCallback valueFn);
+  // Queues a change event of every tuple held that matches, for callback `id` alone.
+  CallbackId queueHeld(const Pattern& pattern, CallbackId id);
   void retarget(const std::shared_ptr<Indirect>& indirect);
   std::uint64_t lifeOf(PeisId owner) const { return owner == self_ ? 0 : incarnationOf(owner); }
   void checkData(std::size_t bytes) const;
@@ -291,6 +328,14 @@ class TupleSpace {
   // and forth with the kernel's batch: no allocation per delivery).
   std::vector<Delivery> queue_;
   std::size_t queueHead_ = 0;
+  std::uint64_t taken_ = 0;  // deliveries ever taken from queue_
+  // Removed callbacks that deliveries taken before `before` was reached
+  // may still point to.
+  struct Retired {
+    std::uint64_t before;
+    std::shared_ptr<Entry> entry;
+  };
+  std::vector<Retired> retired_;
   CallbackId nextCallbackId_ = 1;
   bool dispatching_ = false;
   bool allKeysDirty_ = true;

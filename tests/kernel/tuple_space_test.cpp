@@ -7,6 +7,7 @@
 #include <catch2/catch.hpp>
 #include <chrono>
 #include <cstdint>
+#include <memory>
 #include <ostream>
 #include <stdexcept>
 #include <string>
@@ -823,6 +824,101 @@ TEST_CASE("removeCallback stops a callback, even during a dispatch", "[unit][tup
   }
 
   CHECK_FALSE(space.removeCallback(9999));
+}
+
+TEST_CASE("a removed callback is kept until the deliveries taken before ran",
+          "[unit][tuplespace]") {
+  ManualClock clock;
+  TupleSpace space(kSelf, [&] { return clock.now; });
+  // Its function owns `alive`: the count says whether the function exists.
+  auto alive = std::make_shared<int>(0);
+  std::vector<std::string> seen;
+  const auto id = space.addValueCallback(
+      Pattern(), peis::kOnChange, [&seen, alive](const Tuple& t) { seen.push_back(t.data); });
+  space.set("k", "1");
+  std::vector<TupleSpace::Delivery> taken;
+  space.takeAllDeliveries(taken);
+  REQUIRE(taken.size() == 1);
+  space.set("k", "2");  // queued, not taken yet
+  CHECK(space.removeCallback(id));
+  CHECK(alive.use_count() == 2);  // a delivery taken may still point to it
+  space.deliveriesRan();          // the queued one was not taken yet
+  CHECK(alive.use_count() == 2);
+  for (const auto& delivery : taken) delivery.run();
+  CHECK(seen.empty());  // removed before its delivery ran
+  taken.clear();
+  space.takeAllDeliveries(taken);
+  for (const auto& delivery : taken) delivery.run();
+  taken.clear();
+  space.deliveriesRan();
+  CHECK(alive.use_count() == 1);  // let go
+  CHECK(seen.empty());
+}
+
+TEST_CASE("a stream's deliveries keep their values however they leave the space",
+          "[unit][tuplespace]") {
+  // A queued delivery of a value just stored holds no reference of its
+  // own until the value is replaced or removed, or the delivery is taken.
+  ManualClock clock;
+  TupleSpace space(kSelf, [&] { return clock.now; });
+  std::vector<std::string> seen;
+  space.addValueCallback(Pattern(), peis::kOnChange | peis::kOnDelete,
+                         [&](const Tuple& t) { seen.push_back(t.fullName() + "=" + t.data); });
+  std::vector<TupleSpace::Delivery> taken;
+  std::vector<peis::TuplePtr> spent;
+  const auto runTaken = [&] {
+    space.takeAllDeliveries(taken);
+    for (auto& delivery : taken) {
+      delivery.run();
+      spent.push_back(delivery.takeTuple());
+    }
+    taken.clear();
+    space.recycle(spent);  // reused for the next values stored
+    space.deliveriesRan();
+  };
+  std::uint64_t seqno = 0;
+  for (int round = 0; round < 3; ++round) {
+    for (int i = 0; i < 5; ++i) {
+      const auto data = std::to_string(round) + "." + std::to_string(i);
+      REQUIRE(space.accept(remoteTuple(9, "s", data, ++seqno)));
+      if (i == 2) REQUIRE(space.accept(remoteTuple(9, "other", data, seqno)));  // another key
+    }
+    runTaken();
+  }
+  REQUIRE(space.accept(remoteTuple(9, "s", "last", ++seqno)));
+  REQUIRE(space.acceptDelete(9, "s", ++seqno));  // its delivery queued, the value removed
+  REQUIRE(space.accept(remoteTuple(9, "s", "again", ++seqno)));
+  REQUIRE(space.forgetOwner(9) == 2);  // "s" and "other", with a delivery queued
+  runTaken();
+  std::vector<std::string> expected;
+  for (int round = 0; round < 3; ++round) {
+    for (int i = 0; i < 5; ++i) {
+      const auto data = std::to_string(round) + "." + std::to_string(i);
+      expected.push_back("9.s=" + data);
+      if (i == 2) expected.push_back("9.other=" + data);
+    }
+  }
+  for (const auto* value : {"9.s=last", "9.s=last", "9.s=again", "9.other=2.2", "9.s=again"}) {
+    expected.push_back(value);
+  }
+  CHECK(seen == expected);
+}
+
+TEST_CASE("a value callback gets every change of what it matches", "[unit][tuplespace]") {
+  ManualClock clock;
+  TupleSpace space(kSelf, [&] { return clock.now; });
+  std::vector<std::string> seen;
+  space.addValueCallback(Pattern("k"), peis::kOnChange,
+                         [&](const Tuple& t) { seen.push_back(t.data); });
+  space.set("k", "1");
+  space.set("other", "x");
+  space.set("k", "2");
+  CHECK(space.dispatch() == 2);
+  CHECK(seen == std::vector<std::string>{"1", "2"});
+  space.addValueCallbackWithHeld(Pattern("k"),
+                                 [&](const Tuple& t) { seen.push_back("held " + t.data); });
+  space.dispatch();
+  CHECK(seen.back() == "held 2");
 }
 
 TEST_CASE("a callback may write; the nested event runs later in the same dispatch",

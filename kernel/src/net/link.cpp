@@ -31,6 +31,12 @@ constexpr std::size_t kMaxReadRoom = 32 * 1024;
 // gradually while a slow reader catches up.
 constexpr std::size_t kWriteChunk = 256 * 1024;
 constexpr std::size_t kFirstChunkBytes = 4 * 1024;  // a new write chunk's first memory
+// A stream's chunk holds kWriteChunk and the frames that cross it (an
+// outbox entry is at most 64 KiB) without growing again.
+constexpr std::size_t kChunkSlack = 64 * 1024 + 1024;
+// Written chunks kept for the next while a stream writes (1 MiB); a link
+// that goes idle lets them go (shrinkIfIdle).
+constexpr std::size_t kSpareChunks = 4;
 // After this many reads in a row smaller than kFirstReadRoom, with nothing
 // left over, the link is idle (pings, a round trip now and then): its read
 // buffer and spare write chunk go back to their first sizes, so the links of
@@ -247,24 +253,36 @@ bool Link::bytesWaiting() {
 
 // The chunk to append `bytes` of frames to: the last one, unless it is
 // full or ends in a tuple's data. A chunk starts small (an idle link's
-// pings cost little memory) and doubles while a stream fills it.
+// pings cost little memory) and doubles while a stream fills it; once one
+// has grown (a stream), new chunks take kWriteChunk at once and written ones
+// are kept for the next (spareChunks_): a backlog of fresh chunks grown by
+// doubling cost the writer a copy of each and a page fault per 4 KiB of
+// frames (glibc gave the freed ones back, the next faulted them in again).
 std::string& Link::appendable(std::size_t bytes) {
   if (chunks_.empty() || chunks_.back().tail || chunks_.back().records ||
       chunks_.back().bytes.size() >= kWriteChunk) {
-    chunks_.emplace_back().bytes = std::move(spareChunk_);
-    spareChunk_ = std::string();
+    auto& fresh = chunks_.emplace_back().bytes;
+    if (!spareChunks_.empty()) {
+      fresh = std::move(spareChunks_.back());
+      spareChunks_.pop_back();
+    }
   }
   auto& chunk = chunks_.back().bytes;
   if (chunk.capacity() < chunk.size() + bytes) {
-    chunk.reserve(std::max({chunk.size() + bytes, 2 * chunk.capacity(), kFirstChunkBytes}));
-    if (chunk.capacity() > kFirstChunkBytes) idleWrites_ = false;  // a stream: keep its memory
+    chunk.reserve(bigWrites_
+                      ? std::max(chunk.size() + bytes, kWriteChunk + kChunkSlack)
+                      : std::max({chunk.size() + bytes, 2 * chunk.capacity(), kFirstChunkBytes}));
+    if (chunk.capacity() > kFirstChunkBytes) {
+      idleWrites_ = false;  // a stream: keep its memory
+      bigWrites_ = true;
+    }
   }
   return chunk;
 }
 
-// Keeps the memory of one written chunk for the next (a stream then
-// allocates no write buffers), and of a few record blocks; a huge one is
-// let go.
+// Keeps the memory of the written chunks for the next (a stream then
+// allocates no write buffers: up to kSpareChunks while it writes big
+// chunks, one otherwise), and of a few record blocks; a huge one is let go.
 void Link::keepSpareChunk() {
   for (auto& chunk : outChunks_) {
     if (chunk.recordRoom == kRecordBlockBytes && spareRecords_.size() < kSpareRecordBlocks &&
@@ -272,13 +290,15 @@ void Link::keepSpareChunk() {
       spareRecords_.push_back(std::move(chunk.records));
     }
   }
+  const std::size_t keep = bigWrites_ ? kSpareChunks : 1;
   for (auto& chunk : outChunks_) {
-    if (spareChunk_.capacity() >= kWriteChunk) return;
+    if (spareChunks_.size() >= keep) return;
     if (chunk.recordRoom > 0) continue;  // records: no frames' memory
     if (chunk.bytes.capacity() > 2 * kWriteChunk) continue;
+    if (chunk.bytes.capacity() < kFirstChunkBytes) continue;  // nothing worth keeping
     if (idleWrites_ && chunk.bytes.capacity() > kFirstChunkBytes) continue;
     chunk.bytes.clear();
-    spareChunk_ = std::move(chunk.bytes);
+    spareChunks_.push_back(std::move(chunk.bytes));
   }
 }
 
@@ -658,7 +678,8 @@ void Link::shrinkIfIdle(std::size_t readBytes) {
   const bool writesIdle = writtenSinceIdle_ <= kFirstChunkBytes * kIdleReads;
   writtenSinceIdle_ = 0;
   if (!writesIdle) return;
-  if (spareChunk_.capacity() > kFirstChunkBytes) spareChunk_ = std::string();
+  spareChunks_.clear();
+  bigWrites_ = false;
   spareRecords_.clear();  // a secured stream's record blocks, kept while it ran
   idleWrites_ = true;     // a big chunk being written (a pong) is let go too
 }

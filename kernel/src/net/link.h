@@ -162,7 +162,9 @@ class Link : public std::enable_shared_from_this<Link> {
   // link's is small: shrinkIfIdle).
   std::size_t bufferBytes() const {
     MutexLock lock(writeMu_);
-    return inCapacity_ + spareChunk_.capacity() + spareRecords_.size() * kRecordBlockBytes;
+    std::size_t spare = 0;
+    for (const auto& chunk : spareChunks_) spare += chunk.capacity();
+    return inCapacity_ + spare + spareRecords_.size() * kRecordBlockBytes;
   }
   // How long the write under way has been waiting for the peer to take it
   // (zero when none is).
@@ -304,11 +306,15 @@ class Link : public std::enable_shared_from_this<Link> {
   mutable AdaptiveMutex writeMu_;
   bool writeClosed_ GUARDED_BY(writeMu_) = false;      // the socket is closed (or closing)
   std::vector<Chunk> outChunks_ GUARDED_BY(writeMu_);  // being written
-  std::string spareChunk_ GUARDED_BY(writeMu_);        // a written chunk's memory, for the next
+  std::vector<std::string> spareChunks_
+      GUARDED_BY(writeMu_);  // written chunks' memory, for the next
   std::vector<std::unique_ptr<char[]>> spareRecords_ GUARDED_BY(writeMu_);  // written record blocks
   // The link is idle (shrinkIfIdle): a written chunk bigger than the first
   // size is freed, not kept, until a chunk grows again.
   bool idleWrites_ GUARDED_BY(writeMu_) = false;
+  // A chunk has grown past the first size since the link was last idle (a
+  // stream): new chunks take their full size at once.
+  bool bigWrites_ GUARDED_BY(writeMu_) = false;
   std::size_t writtenSinceIdle_ GUARDED_BY(writeMu_) = 0;  // by write(), since the last check
   std::vector<boost::asio::const_buffer> outBuffers_ GUARDED_BY(writeMu_);
   std::size_t inFlight_ GUARDED_BY(writeMu_) = 0;
