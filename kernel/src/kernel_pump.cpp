@@ -55,10 +55,25 @@ void Kernel::Impl::afterMutation(DirectSend* direct) {
     }
   }
   if (waiters > 0) changed.notify_all();
+  if (!valueWaiters.empty()) serveValueWaiters(handlerRuns);
   if (!retryArmed && replication.hasUnanswered()) {
     retryArmed = true;
     asio::post(io, [this] { armRetry(); });
   }
+}
+
+void Kernel::Impl::serveValueWaiters(bool later) {
+  std::erase_if(valueWaiters, [&](const std::shared_ptr<ValueWaiter>& waiter) {
+    auto tuple = space.get(waiter->owner, waiter->key);
+    if (!tuple || tuple->seqno == waiter->seenSeqno) return false;
+    waiter->fulfil(std::move(tuple));
+    if (later) {
+      wakeAfterUnlock.push_back(waiter);
+    } else {
+      waiter->wake();
+    }
+    return true;
+  });
 }
 
 // A direct send hands the outbox's messages to the links from the thread
