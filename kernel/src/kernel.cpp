@@ -364,6 +364,10 @@ std::shared_ptr<const Tuple> Kernel::waitForNext(PeisId owner, std::string_view 
   auto waiter = std::make_shared<ValueWaiter>();
   {
     MutexLock lock(impl_->mu);
+    if (impl_->space.allKeysDirty() && key == special::kAllKeys && owner == impl_->id) {
+      impl_->space.flushAllKeys();  // as get does: the list is brought up to date when read
+      impl_->afterMutation();
+    }
     auto tuple = impl_->space.get(owner, key);
     if (tuple && tuple->seqno != seenSeqno) return tuple;
     if (!waits) return nullptr;

@@ -201,6 +201,7 @@ void Kernel::Impl::drain() {  // kernel thread: deliveries taken from the space,
         if (space.allKeysDirty()) {
           space.flushAllKeys();  // may queue deliveries of its own
           if (waiters > 0) changed.notify_all();
+          if (!valueWaiters.empty()) serveValueWaiters(false);
           continue;
         }
         drainScheduled = false;

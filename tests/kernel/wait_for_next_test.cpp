@@ -93,3 +93,17 @@ TEST_CASE("waitForNext with a wait is refused on the kernel thread", "[unit][ker
   REQUIRE(peis::test::waitFor([&] { return outcome.load() != 0; }));
   CHECK(outcome == 1);
 }
+
+TEST_CASE("waitForNext sees kernel.all-keys change when a key is added", "[unit][kernel]") {
+  peis::Kernel kernel(alone());
+  const auto before = kernel.waitForNext(41, peis::special::kAllKeys, 0, 10s);
+  REQUIRE(before != nullptr);
+  CHECK(before->data.find("added") == std::string::npos);
+  std::shared_ptr<const peis::Tuple> after;
+  std::thread waiter(
+      [&] { after = kernel.waitForNext(41, peis::special::kAllKeys, before->seqno, 10s); });
+  kernel.publish("added", "1");
+  waiter.join();
+  REQUIRE(after != nullptr);
+  CHECK(after->data.find("added") != std::string::npos);
+}
