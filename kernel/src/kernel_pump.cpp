@@ -64,6 +64,7 @@ void Kernel::Impl::afterMutation(DirectSend* direct) {
 
 void Kernel::Impl::serveValueWaiters(bool later) {
   std::erase_if(valueWaiters, [&](const std::shared_ptr<ValueWaiter>& waiter) {
+    mu.assertHeld();  // this function holds it (the analysis does not follow lambdas)
     auto tuple = space.get(waiter->owner, waiter->key);
     if (!tuple || tuple->seqno == waiter->seenSeqno) return false;
     waiter->fulfil(std::move(tuple));
