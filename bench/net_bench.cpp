@@ -217,11 +217,6 @@ Percentiles tcpRoundTrip(std::size_t bytes, int count) {
 
 Percentiles peisRoundTrip(std::size_t bytes, int count, const std::string& ecology,
                           const std::string& credentials = "") {
-  // Declared before the kernel, so a late pong's callback (on the kernel
-  // thread, until the kernel is destroyed) never finds them gone.
-  std::mutex mu;
-  std::condition_variable cv;
-  std::string lastPong;
   peis::Kernel kernel(hostOptions(ecology, 1, false, credentials));
   Child echo([&] {
     auto args = std::vector<std::string>{
@@ -230,18 +225,13 @@ Percentiles peisRoundTrip(std::size_t bytes, int count, const std::string& ecolo
     if (!credentials.empty()) args.insert(args.end(), {"--credentials", credentials});
     return args;
   }());
-  kernel.onChange(peis::Pattern::exact(2, "pong"), [&](const peis::Tuple& t) {
-    {
-      std::lock_guard lock(mu);
-      lastPong = t.data.substr(0, 16);
-    }
-    // Woken after the lock is let go: the waiter does not wake only to
-    // block on the lock again.
-    cv.notify_one();
-  });
   kernel.subscribe(peis::Pattern::exact(2, "pong"));
   // Wait until the echo is subscribed to our ping.
   waitFor([&] { return kernel.get(peis::special::kSubscribers)->data == "2"; }, 10s);
+  // The writer waits for each pong with the kernel's waitForNext, as an
+  // application thread that waits for an answer does (a callback that
+  // answers is peisCallbackRoundTrip).
+  std::uint64_t seenPong = 0;
   std::vector<double> micros;
   for (int i = 0; i < count + 50; ++i) {
     // Each round's value is made before the clock starts and handed over
@@ -255,8 +245,13 @@ Percentiles peisRoundTrip(std::size_t bytes, int count, const std::string& ecolo
     const std::string expect = payload.substr(0, 16);
     const auto start = Clock::now();
     kernel.publish("ping", std::move(payload));
-    std::unique_lock lock(mu);
-    if (!cv.wait_for(lock, 5s, [&] { return lastPong == expect; })) break;
+    std::shared_ptr<const peis::Tuple> pong;
+    while ((pong = kernel.waitForNext(2, "pong", seenPong, 5s)) &&
+           pong->data.compare(0, 16, expect) != 0) {
+      seenPong = pong->seqno;  // an earlier round's (none is expected)
+    }
+    if (!pong) break;
+    seenPong = pong->seqno;
     if (i >= 50)
       micros.push_back(std::chrono::duration<double, std::micro>(Clock::now() - start).count());
   }

@@ -351,6 +351,42 @@ std::optional<Tuple> Kernel::get(PeisId owner, std::string_view key,
   return *tuple;
 }
 
+std::shared_ptr<const Tuple> Kernel::waitForNext(PeisId owner, std::string_view key,
+                                                 std::uint64_t seenSeqno,
+                                                 std::chrono::milliseconds wait) const {
+  const bool waits = wait.count() > 0;
+  if (waits && onKernelThread()) {
+    throw Error(ErrorCode::WouldDeadlock,
+                "a blocking wait on the kernel thread (in a callback) would stop the kernel; "
+                "register a callback instead");
+  }
+  const auto deadline = deadlineAfter(std::chrono::steady_clock::now(), wait);
+  auto waiter = std::make_shared<ValueWaiter>();
+  {
+    MutexLock lock(impl_->mu);
+    if (impl_->space.allKeysDirty() && key == special::kAllKeys && owner == impl_->id) {
+      impl_->space.flushAllKeys();  // as get does: the list is brought up to date when read
+      impl_->afterMutation();
+    }
+    auto tuple = impl_->space.get(owner, key);
+    if (tuple && tuple->seqno != seenSeqno) return tuple;
+    if (!waits) return nullptr;
+    waiter->owner = owner;
+    waiter->key = std::string(key);
+    waiter->seenSeqno = seenSeqno;
+    impl_->valueWaiters.push_back(waiter);
+  }
+  if (!waiter->waitUntil(deadline)) {
+    MutexLock lock(impl_->mu);
+    // Served while the deadline passed: the value is ours all the same.
+    if (waiter->ready.load(std::memory_order_acquire) == 0) {
+      std::erase(impl_->valueWaiters, waiter);
+      return nullptr;
+    }
+  }
+  return std::move(waiter->value);  // the kernel is done with it once ready
+}
+
 std::optional<Tuple> Kernel::get(const FullName& name) const {
   return get(resolveOwner(name.owner), name.key);
 }

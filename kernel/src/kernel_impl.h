@@ -34,6 +34,7 @@
 #include "thread_annotations.h"
 #include "timers.h"
 #include "tuple_space.h"
+#include "value_waiter.h"
 
 namespace peis {
 
@@ -80,7 +81,9 @@ struct Kernel::Impl {
   bool retryArmed GUARDED_BY(mu) = false;      // retryTimer armed or posted
   bool networkStopped GUARDED_BY(mu) = false;  // no retry timer after stopNetwork
   mutable int waiters GUARDED_BY(mu) = 0;      // threads blocked in get(…, wait)
-  int outboxWaiters GUARDED_BY(mu) = 0;        // writers in awaitOutbox
+  // Threads blocked in waitForNext: served by afterMutation.
+  mutable std::vector<std::shared_ptr<ValueWaiter>> valueWaiters GUARDED_BY(mu);
+  int outboxWaiters GUARDED_BY(mu) = 0;  // writers in awaitOutbox
   // A writer's wait ran out without the outbox draining: a subscriber does
   // not keep up, and writers do not wait again until the outbox drained.
   bool outboxLagging GUARDED_BY(mu) = false;
@@ -120,6 +123,8 @@ struct Kernel::Impl {
   std::vector<TuplePtr> spentTuples;            // of deliveries that ran: back to the space
   std::vector<Replication::Outgoing> outgoing;  // flush's, memory reused
   std::vector<std::string> sentFrames;          // frames handed to links
+  // Waiters onMessages served under the lock: woken once it let go.
+  std::vector<std::shared_ptr<ValueWaiter>> wakeAfterUnlock;
 
   // --- Guarded by their own locks -------------------------------------------------
   TimerTable timers;
@@ -188,6 +193,10 @@ struct Kernel::Impl {
   // readers. With `direct`, what waits in the outbox may go into it instead
   // (sendDirect), for the caller to send once it has let go of mu.
   void afterMutation(DirectSend* direct = nullptr) REQUIRES(mu);
+  // Hands each waitForNext waiter whose tuple has a new value that value;
+  // wakes it now, or (`later`: a handler of received messages, which still
+  // holds mu) puts it in wakeAfterUnlock.
+  void serveValueWaiters(bool later) REQUIRES(mu);
   // Takes what waits in the outbox into `direct` when that keeps every rule
   // (see kernel_pump.cpp); true when nothing that could be sent is left
   // for flush.

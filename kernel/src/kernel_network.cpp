@@ -283,6 +283,10 @@ void Kernel::Impl::onMessages(std::span<wire::RoutedMessage> messages) {
     if (!gated.empty()) gate = writeGate;
   }
   drainInline = false;
+  // Threads waiting for what arrived (waitForNext) are woken once the lock
+  // is free, before the callbacks run: they need not wait for those.
+  for (const auto& waiter : wakeAfterUnlock) waiter->wake();
+  wakeAfterUnlock.clear();
   for (auto& [source, write] : gated) holdWrite(gate, source, std::move(write));
   for (auto& [source, result] : results) remoteWrites.onResult(source, result);
   // What it queued goes out, and the callbacks of what arrived run, now, on

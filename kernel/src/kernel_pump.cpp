@@ -55,10 +55,26 @@ void Kernel::Impl::afterMutation(DirectSend* direct) {
     }
   }
   if (waiters > 0) changed.notify_all();
+  if (!valueWaiters.empty()) serveValueWaiters(handlerRuns);
   if (!retryArmed && replication.hasUnanswered()) {
     retryArmed = true;
     asio::post(io, [this] { armRetry(); });
   }
+}
+
+void Kernel::Impl::serveValueWaiters(bool later) {
+  std::erase_if(valueWaiters, [&](const std::shared_ptr<ValueWaiter>& waiter) {
+    mu.assertHeld();  // this function holds it (the analysis does not follow lambdas)
+    auto tuple = space.get(waiter->owner, waiter->key);
+    if (!tuple || tuple->seqno == waiter->seenSeqno) return false;
+    waiter->fulfil(std::move(tuple));
+    if (later) {
+      wakeAfterUnlock.push_back(waiter);
+    } else {
+      waiter->wake();
+    }
+    return true;
+  });
 }
 
 // A direct send hands the outbox's messages to the links from the thread
@@ -187,6 +203,7 @@ void Kernel::Impl::drain() {  // kernel thread: deliveries taken from the space,
         if (space.allKeysDirty()) {
           space.flushAllKeys();  // may queue deliveries of its own
           if (waiters > 0) changed.notify_all();
+          if (!valueWaiters.empty()) serveValueWaiters(false);
           continue;
         }
         drainScheduled = false;

@@ -1,5 +1,6 @@
-// Kernel API across PEIS: waitForPeer finds a PEIS that starts later, and
-// a remote write's ttl makes the owner delete the tuple when it expires.
+// Kernel API across PEIS: waitForPeer finds a PEIS that starts later, a
+// remote write's ttl makes the owner delete the tuple when it expires, and
+// waitForNext wakes with each new value of a subscribed remote tuple.
 #include <atomic>
 #include <catch2/catch.hpp>
 #include <mutex>
@@ -97,4 +98,31 @@ TEST_CASE("onValue hands a remote value already cached, onChange only later chan
   std::lock_guard lock(mu);
   CHECK(values == std::vector<std::string>{"1", "2"});
   CHECK(changes == std::vector<std::string>{"2"});
+}
+
+TEST_CASE("waitForNext wakes with each new value of a subscribed remote tuple", "[integration]") {
+  const auto ecology = uniqueEcology("wait-for-next");
+  peis::Kernel owner(kernelOptions(ecology, "owner"));
+  peis::Kernel reader(kernelOptions(ecology, "reader"));
+  reader.subscribe(peis::Pattern::exact(owner.id(), "reply"));
+  REQUIRE(waitFor([&] { return peis::test::hasPeer(reader, owner.id()); }, kDeadline));
+  // Request and reply, as a thread that waits for each answer does: the
+  // owner answers every request, the reader waits for the answer.
+  owner.onChange(peis::Pattern::exact(reader.id(), "request"),
+                 [&](const peis::Tuple& t) { owner.publish("reply", t.data); });
+  owner.subscribe(peis::Pattern::exact(reader.id(), "request"));
+  REQUIRE(waitFor(
+      [&] { return reader.get(peis::special::kSubscribers)->data == std::to_string(owner.id()); },
+      kDeadline));
+  std::uint64_t seen = 0;
+  for (int i = 0; i < 20; ++i) {
+    // Up to 76 KB: big values are read straight into their tuple.
+    const auto request = std::to_string(i) + std::string(static_cast<std::size_t>(i) * 4000, 'x');
+    reader.publish("request", request);
+    const auto reply = reader.waitForNext(owner.id(), "reply", seen, kDeadline);
+    REQUIRE(reply != nullptr);
+    CHECK(reply->owner == owner.id());
+    CHECK(reply->data == request);
+    seen = reply->seqno;
+  }
 }

@@ -153,6 +153,18 @@ class Kernel {
   // kernel thread (Error(WouldDeadlock)): use a callback there.
   std::optional<Tuple> get(PeisId owner, std::string_view key,
                            std::chrono::milliseconds wait) const;
+  // Waits up to `wait` for the tuple to hold a value whose seqno is not
+  // `seenSeqno` (0: any value), and returns it; null at the deadline. For
+  // a thread that waits for an answer (a request's reply, the next frame):
+  // the value is the stored one, shared and immutable (its data is not
+  // copied), and the thread is woken by a futex the moment the kernel
+  // stored it (no lock to take again). Values in between may be skipped:
+  // it returns the newest. A remote tuple's values arrive only while this
+  // PEIS subscribes to it (subscribe). Not allowed on the kernel thread
+  // (Error(WouldDeadlock)) unless `wait` is 0: use a callback there.
+  std::shared_ptr<const Tuple> waitForNext(PeisId owner, std::string_view key,
+                                           std::uint64_t seenSeqno,
+                                           std::chrono::milliseconds wait) const;
   // "OWNER.KEY" with OWNER an id or a PEIS name.
   std::optional<Tuple> get(const FullName& name) const;
   std::vector<Tuple> find(const Pattern& pattern) const;
