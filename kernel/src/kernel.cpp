@@ -112,6 +112,13 @@ Kernel::~Kernel() {
   impl_->work.reset();
   impl_->io.stop();
   if (impl_->thread.joinable()) impl_->thread.join();
+  // Threads still in waitForNext return null now, not at their deadline.
+  MutexLock lock(impl_->mu);
+  for (const auto& waiter : impl_->valueWaiters) {
+    waiter->fulfil(nullptr);
+    waiter->wake();
+  }
+  impl_->valueWaiters.clear();
 }
 
 PeisId Kernel::id() const { return impl_->id; }

@@ -226,6 +226,19 @@ void Kernel::Impl::onMessages(std::span<wire::RoutedMessage> messages) {
   std::vector<std::pair<PeisId, wire::Write>> gated;
   WriteGate gate;
   drainInline = true;  // the deliveries run below, without a post
+  // Should a message throw below, what the handler deferred is not left
+  // waiting for the next message: posted instead, and waiters woken.
+  struct DeferredOnThrow {
+    Impl& k;
+    ~DeferredOnThrow() {
+      if (!k.drainInline) return;  // the normal way out, below
+      k.drainInline = false;
+      for (const auto& waiter : k.wakeAfterUnlock) waiter->wake();
+      k.wakeAfterUnlock.clear();
+      if (std::exchange(k.flushDeferred, false)) asio::post(k.io, [&k = k] { k.flush(); });
+      if (std::exchange(k.drainDeferred, false)) asio::post(k.io, [&k = k] { k.drain(); });
+    }
+  } deferredOnThrow{*this};
   {
     MutexLock lock(mu);
     receivedSinceDirect = true;  // an answer may follow: send it at once

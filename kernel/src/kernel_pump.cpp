@@ -63,6 +63,8 @@ void Kernel::Impl::afterMutation(DirectSend* direct) {
 }
 
 void Kernel::Impl::serveValueWaiters(bool later) {
+  // Room first: a waiter served is always woken (no throw between).
+  if (later) wakeAfterUnlock.reserve(wakeAfterUnlock.size() + valueWaiters.size());
   std::erase_if(valueWaiters, [&](const std::shared_ptr<ValueWaiter>& waiter) {
     mu.assertHeld();  // this function holds it (the analysis does not follow lambdas)
     auto tuple = space.get(waiter->owner, waiter->key);
@@ -195,9 +197,11 @@ void Kernel::Impl::drain() {  // kernel thread: deliveries taken from the space,
     if (batchNext == batch.size()) {
       batch.clear();  // its memory goes to the space's queue with the swap
       batchNext = 0;
+      // Destroyed after the lock below is let go (declared before it).
+      TupleSpace::RemovedCallbacks removed;
       MutexLock lock(mu);
       space.recycle(spentTuples);      // their storage is reused for the next tuples
-      space.deliveriesRan();           // the callbacks removed meanwhile can go
+      space.deliveriesRan(removed);    // the callbacks removed meanwhile can go
       space.takeAllDeliveries(batch);  // a swap: one lock for all queued
       if (batch.empty()) {
         if (space.allKeysDirty()) {

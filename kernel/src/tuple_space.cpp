@@ -700,8 +700,11 @@ bool TupleSpace::removeCallback(CallbackId id) {
   if (auto it = callbacks_.find(id); it != callbacks_.end()) {
     it->second->active = false;
     // Deliveries queued or taken until now may point to it: it is kept
-    // until they ran (deliveriesRan).
-    retired_.push_back(Retired{taken_ + (queue_.size() - queueHead_), std::move(it->second)});
+    // until they ran (deliveriesRan). With none, it goes now (as it did
+    // when deliveries held shared references): nothing may be left to
+    // wait for a drain that no event would schedule.
+    const auto before = taken_ + (queue_.size() - queueHead_);
+    if (before > ranThrough_) retired_.push_back(Retired{before, std::move(it->second)});
     callbacks_.erase(it);
     matchCache_ = MatchCache();
     return true;
@@ -828,11 +831,15 @@ void TupleSpace::takeAllDeliveries(std::vector<Delivery>& out) {
   queueHead_ = 0;
 }
 
-void TupleSpace::deliveriesRan() {
+void TupleSpace::deliveriesRan(RemovedCallbacks& letGo) {
+  ranThrough_ = taken_;
+  if (retired_.empty()) return;
   // Those retired before the last delivery taken: no delivery left points to them.
-  const auto done = std::remove_if(retired_.begin(), retired_.end(),
-                                   [&](const Retired& r) { return r.before <= taken_; });
-  retired_.erase(done, retired_.end());
+  std::erase_if(retired_, [&](Retired& r) {
+    if (r.before > taken_) return false;
+    letGo.push_back(std::move(r.entry));
+    return true;
+  });
 }
 
 std::size_t TupleSpace::dispatch() {

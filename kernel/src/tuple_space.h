@@ -237,9 +237,12 @@ class TupleSpace {
   bool hasPendingDeliveries() const { return queueHead_ < queue_.size(); }
   // Says that every delivery taken so far (takeAllDeliveries, nextDelivery)
   // has run or will never run: the callbacks removed before they were
-  // taken are let go. Until then a delivery may point to a removed one
+  // taken are let go, moved into `letGo` for the caller to destroy once it
+  // holds no lock (a callback's captures may call the kernel when
+  // destroyed). Until then a delivery may point to a removed one
   // (dispatch() does not call it: a caller may still hold a delivery).
-  void deliveriesRan();
+  using RemovedCallbacks = std::vector<std::shared_ptr<Entry>>;
+  void deliveriesRan(RemovedCallbacks& letGo);
   // The tuples of deliveries that ran, handed back by whoever ran them:
   // the storage of those nobody else holds any more is reused for the next
   // tuples stored (a stream then allocates no tuple per update). Clears
@@ -329,6 +332,10 @@ class TupleSpace {
   std::vector<Delivery> queue_;
   std::size_t queueHead_ = 0;
   std::uint64_t taken_ = 0;  // deliveries ever taken from queue_
+  // taken_ when deliveriesRan was called last: deliveries taken up to
+  // there have run (a callback removed while none is queued or running
+  // beyond it is let go at once).
+  std::uint64_t ranThrough_ = 0;
   // Removed callbacks that deliveries taken before `before` was reached
   // may still point to.
   struct Retired {

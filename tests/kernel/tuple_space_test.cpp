@@ -842,7 +842,9 @@ TEST_CASE("a removed callback is kept until the deliveries taken before ran",
   space.set("k", "2");  // queued, not taken yet
   CHECK(space.removeCallback(id));
   CHECK(alive.use_count() == 2);  // a delivery taken may still point to it
-  space.deliveriesRan();          // the queued one was not taken yet
+  TupleSpace::RemovedCallbacks letGo;
+  space.deliveriesRan(letGo);  // the queued one was not taken yet
+  CHECK(letGo.empty());
   CHECK(alive.use_count() == 2);
   for (const auto& delivery : taken) delivery.run();
   CHECK(seen.empty());  // removed before its delivery ran
@@ -850,9 +852,43 @@ TEST_CASE("a removed callback is kept until the deliveries taken before ran",
   space.takeAllDeliveries(taken);
   for (const auto& delivery : taken) delivery.run();
   taken.clear();
-  space.deliveriesRan();
+  space.deliveriesRan(letGo);
+  CHECK(letGo.size() == 1);  // handed to the caller, to destroy without the lock
+  letGo.clear();
   CHECK(alive.use_count() == 1);  // let go
   CHECK(seen.empty());
+}
+
+TEST_CASE("a callback removed with no delivery queued or running goes at once",
+          "[unit][tuplespace]") {
+  // No drain may ever come (nothing else happens in the space): a removed
+  // callback must not wait for one to be let go.
+  ManualClock clock;
+  TupleSpace space(kSelf, [&] { return clock.now; });
+  auto alive = std::make_shared<int>(0);
+  std::vector<TupleSpace::Delivery> taken;
+  TupleSpace::RemovedCallbacks letGo;
+  for (int i = 0; i < 3; ++i) {
+    const auto id =
+        space.addValueCallback(Pattern("never"), peis::kOnChange, [alive](const Tuple&) {});
+    CHECK(alive.use_count() == 2);
+    CHECK(space.removeCallback(id));
+    CHECK(alive.use_count() == 1);
+  }
+  // Once deliveries were taken and ran, the same holds.
+  const auto id = space.addValueCallback(Pattern(), peis::kOnChange, [alive](const Tuple&) {});
+  space.set("k", "1");
+  space.takeAllDeliveries(taken);
+  CHECK(space.removeCallback(id));  // its delivery is taken, not run: kept
+  CHECK(alive.use_count() == 2);
+  for (const auto& delivery : taken) delivery.run();
+  taken.clear();
+  space.deliveriesRan(letGo);
+  letGo.clear();
+  CHECK(alive.use_count() == 1);
+  const auto again = space.addValueCallback(Pattern(), peis::kOnChange, [alive](const Tuple&) {});
+  CHECK(space.removeCallback(again));
+  CHECK(alive.use_count() == 1);
 }
 
 TEST_CASE("a stream's deliveries keep their values however they leave the space",
@@ -874,7 +910,8 @@ TEST_CASE("a stream's deliveries keep their values however they leave the space"
     }
     taken.clear();
     space.recycle(spent);  // reused for the next values stored
-    space.deliveriesRan();
+    TupleSpace::RemovedCallbacks letGo;
+    space.deliveriesRan(letGo);
   };
   std::uint64_t seqno = 0;
   for (int round = 0; round < 3; ++round) {

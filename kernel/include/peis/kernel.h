@@ -162,6 +162,9 @@ class Kernel {
   // it returns the newest. A remote tuple's values arrive only while this
   // PEIS subscribes to it (subscribe). Not allowed on the kernel thread
   // (Error(WouldDeadlock)) unless `wait` is 0: use a callback there.
+  // `seenSeqno` is compared for equality only: after a remote owner
+  // restarts, a new value that happens to carry the seqno seen waits for
+  // the next. Destroying the Kernel returns null to threads still waiting.
   std::shared_ptr<const Tuple> waitForNext(PeisId owner, std::string_view key,
                                            std::uint64_t seenSeqno,
                                            std::chrono::milliseconds wait) const;
