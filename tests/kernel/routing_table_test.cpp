@@ -58,6 +58,21 @@ class Ecology {
     send(b, a, nodes_.at(b)->fullAdvert(a));
   }
 
+  // The link replaced by a new one to the same PEIS (a duplicate link: both
+  // ends keep the one the lower id dialled). What was in flight on the old
+  // link is lost; the new link's first adverts are the whole tables.
+  void relink(PeisId a, PeisId b) {
+    std::erase_if(inFlight_, [&](const InFlight& m) {
+      return (m.from == a && m.to == b) || (m.from == b && m.to == a);
+    });
+    nodes_.at(a)->linkUp(hellos_.at(b));
+    nodes_.at(b)->linkUp(hellos_.at(a));
+    recompute(a);
+    recompute(b);
+    send(a, b, nodes_.at(a)->fullAdvert(b));
+    send(b, a, nodes_.at(b)->fullAdvert(a));
+  }
+
   void unlink(PeisId a, PeisId b) {
     links_.erase({std::min(a, b), std::max(a, b)});
     if (nodes_.count(a)) nodes_.at(a)->linkDown(b), recompute(a);
@@ -365,6 +380,41 @@ TEST_CASE("routing: a pruned link with another way round keeps the route up", "[
   CHECK(e.hops(1, 3) == 2);
   CHECK(e.downEvents(1, 3) == 0);
   CHECK(e.downEvents(3, 1) == 0);
+}
+
+TEST_CASE("routing: a replaced link keeps the routes through it up", "[unit][routing]") {
+  // 1 - 2 - 3: the link 2 - 3 is replaced by a duplicate. 1 stays reachable
+  // from 3 all along (it went down and up again, failing the writes in
+  // flight to it with "went away", before the new link's adverts came).
+  Ecology e;
+  for (PeisId id : {1, 2, 3}) e.add(id);
+  e.link(1, 2);
+  e.link(2, 3);
+  REQUIRE(e.roundsUntil([&] { return e.converged(); }) >= 0);
+  e.relink(2, 3);
+  CHECK(e.has(3, 1));
+  CHECK(e.has(1, 3));
+  INFO(e.describe());
+  REQUIRE(e.roundsUntil([&] { return e.converged(); }) >= 0);
+  CHECK(e.downEvents(3, 1) == 0);
+  CHECK(e.downEvents(1, 3) == 0);
+}
+
+TEST_CASE("routing: a route withdrawn while its link was replaced is gone with the new advert",
+          "[unit][routing]") {
+  // 3 - 2 - 4: 4 crashes and the link 2 - 3 is replaced before 2 tells 3;
+  // the new link's whole table, without 4, takes 4 out of 3's table.
+  Ecology e;
+  for (PeisId id : {2, 3, 4}) e.add(id);
+  e.link(2, 3);
+  e.link(2, 4);
+  REQUIRE(e.roundsUntil([&] { return e.converged(); }) >= 0);
+  e.crash(4);
+  e.relink(2, 3);
+  CHECK(e.has(3, 4));  // the old link's advert stands until the whole table comes
+  INFO(e.describe());
+  CHECK(e.roundsUntil([&] { return !e.has(3, 4); }) == 1);
+  REQUIRE(e.roundsUntil([&] { return e.converged(); }) >= 0);
 }
 
 TEST_CASE("routing: a healed partition converges again", "[unit][routing]") {

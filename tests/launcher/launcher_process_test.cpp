@@ -147,10 +147,15 @@ TEST_CASE("peis-init: a program that exits at once is restarted with back-off, t
           "[fault]") {
   LauncherFixture f("init-crashloop");
   f.file("crasher",
-         "name: crasher\nexecutable: sh\narguments: [-c, 'echo dying >&2; exit 3']\nstart: on\n"
+         "name: crasher\nexecutable: sh\narguments: [-c, 'echo dying >&2; exit 3']\n"
          "restart: {backoff: 0.05, max-backoff: 0.2, max-restarts: 3}\n");
   f.start();
   StateReport report([&] { return f.report(); });
+  // Started only once the observer's subscription is seen to work: with
+  // `start: on` the first runs may be over before the observer links, and
+  // a subscription brings the current state, not the states before it.
+  REQUIRE_WAIT([&] { return f.reached("crasher", "off"); }, kDeadline);
+  f.request("crasher", "on");
   REQUIRE_WAIT([&] { return f.reached("crasher", "failed"); }, kDeadline);
   CHECK(f.value("crasher", "status") ==
         "error: exited with status 3, 3 restarts in a row (max-restarts 3)");

@@ -644,6 +644,7 @@ void Network::Impl::establishOrClose(Link& link, const wire::Hello& hello) {
     context.existing = &existing->peer_;
     context.existingOutbound = existing->outbound_;
   }
+  bool replaces = false;
   switch (judgeHello(context, hello)) {
     case HelloVerdict::Ignore:
       ++link.malformed_;
@@ -680,6 +681,7 @@ void Network::Impl::establishOrClose(Link& link, const wire::Hello& hello) {
     case HelloVerdict::ReplacesExisting:
       existing->established_ = false;
       existing->close("replaced by a new link");
+      replaces = true;
       break;
     case HelloVerdict::Establish:
       break;
@@ -694,6 +696,9 @@ void Network::Impl::establishOrClose(Link& link, const wire::Hello& hello) {
                        link.remote_ + (link.outbound_ ? " (dialled)" : " (accepted)"));
   table_.linkUp(hello);
   recompute();
+  // The routes are as they were (the table keeps the old link's advert), but
+  // whoever holds the old link (the kernel's direct sends) must take the new.
+  if (replaces && events_.onTopology) events_.onTopology();
   // The new link gets the whole table now; the others hear of the new route
   // with the next advert.
   if (link.closed()) return;

@@ -40,9 +40,20 @@ void RoutingTable::reset(PeisId newSelf) {
 // --- Inputs --------------------------------------------------------------------------
 
 void RoutingTable::linkUp(const wire::Hello& peer) {
+  const auto linked = neighbours_.find(peer.id);
+  const bool replacesLink =
+      linked != neighbours_.end() && linked->second.hello.incarnation == peer.incarnation;
   auto& n = neighbours_[peer.id];
+  auto advert = std::move(n.advert);
   n = Neighbour{};  // a new link: its first Routes is the whole table again
   n.hello = peer;
+  if (replacesLink) {
+    // Until that whole table comes, the old link's advert stands: what was
+    // reachable through `peer` still is (the frames lost with the old link
+    // are sent again, or recovered by the subscriptions' renewals, §10, §12).
+    n.advert = std::move(advert);
+    n.advertOfReplacedLink = true;
+  }
   markDirty(peer.id);
   for (const auto& [id, route] : routes_) {
     if (route.nextHop == peer.id && route.hops > 0) markDirty(id);
@@ -72,8 +83,32 @@ constexpr std::size_t kMergeAbove = 64;
 void RoutingTable::onRoutes(PeisId from, std::vector<wire::RouteEntry>& entries) {
   auto neighbour = neighbours_.find(from);
   if (neighbour == neighbours_.end()) return;
+  if (neighbour->second.advertOfReplacedLink) {
+    neighbour->second.advertOfReplacedLink = false;
+    dropUnoffered(from, neighbour->second, entries);
+  }
   if (entries.size() > kMergeAbove) return mergeEntries(from, neighbour->second, entries);
   for (auto& entry : entries) applyEntry(from, neighbour->second, entry);
+}
+
+void RoutingTable::dropUnoffered(PeisId from, Neighbour& neighbour,
+                                 const std::vector<wire::RouteEntry>& whole) {
+  std::vector<PeisId> offered;
+  offered.reserve(whole.size());
+  for (const auto& entry : whole) offered.push_back(entry.id);
+  std::sort(offered.begin(), offered.end());
+  auto& known = neighbour.advert;
+  boost::container::flat_map<PeisId, wire::RouteEntry> kept;
+  kept.reserve(known.size());
+  for (auto& [id, entry] : known) {
+    if (std::binary_search(offered.begin(), offered.end(), id)) {
+      kept.emplace_hint(kept.end(), id, std::move(entry));
+      continue;
+    }
+    entry.hops = kWithdrawn;  // withdrawn on the old link, its delta lost with it
+    entryChanged(from, entry);
+  }
+  known = std::move(kept);
 }
 
 RoutingTable::EntryKind RoutingTable::kindOf(PeisId from, const wire::RouteEntry& entry) {

@@ -93,7 +93,11 @@ class RoutingTable {
   void reset(PeisId newSelf);
 
   // --- Inputs ------------------------------------------------------------------
-  // A link to `peer` was established (its Hello).
+  // A link to `peer` was established (its Hello). A link that replaces one
+  // to the same life of `peer` (a duplicate link, docs/protocol.md §7) keeps
+  // what the old link advertised until the new link's first `Routes`, the
+  // peer's whole table, replaces it: the routes through `peer` stay up
+  // meanwhile rather than go down and up again.
   void linkUp(const wire::Hello& peer);
   // The last link to `peer` closed.
   void linkDown(PeisId peer);
@@ -174,6 +178,9 @@ class RoutingTable {
     // What it last heard from us, compactly (a name by its hash).
     boost::container::flat_map<PeisId, Told> told;
     bool toldAll = false;  // it got our whole table once
+    // The advert came over a link since replaced by another to the same
+    // PEIS: the next `Routes` (the new link's first) is its whole table.
+    bool advertOfReplacedLink = false;
   };
   // The best route this PEIS has had to a PEIS, for the feasibility
   // condition, kept a while after the route is gone.
@@ -208,6 +215,9 @@ class RoutingTable {
   // path, for small deltas), or many at once in one sorted merge.
   void applyEntry(PeisId from, Neighbour& neighbour, wire::RouteEntry& entry);
   void mergeEntries(PeisId from, Neighbour& neighbour, std::vector<wire::RouteEntry>& entries);
+  // Withdraws what `neighbour` advertised over its replaced link and does not
+  // offer in `whole`, the new link's whole table.
+  void dropUnoffered(PeisId from, Neighbour& neighbour, const std::vector<wire::RouteEntry>& whole);
   // What an entry from `from` does: it is ours, it removes the id, or it
   // is an offer.
   enum class EntryKind { Ours, Removes, Offer };
