@@ -468,7 +468,10 @@ TEST_CASE("the peis command-line tool: set, get, watch, tuples, ls, --help", "[i
   }
 
   SECTION("get of a missing key exits 1") {
-    auto get = runCli(ecology, {"get", id + ".missing", "--wait", "0.3"});
+    // A missing key waits out the whole --wait; it must also give a new
+    // process time to find and link to the owner under load (0.3 s did not:
+    // "not reachable" instead of "no key").
+    auto get = runCli(ecology, {"get", id + ".missing", "--wait", "3"});
     INFO(describe(get));
     CHECK(get.status == 1);
     CHECK(get.out.empty());
