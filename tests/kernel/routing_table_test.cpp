@@ -50,12 +50,7 @@ class Ecology {
 
   void link(PeisId a, PeisId b) {
     links_.insert({std::min(a, b), std::max(a, b)});
-    nodes_.at(a)->linkUp(hellos_.at(b));
-    nodes_.at(b)->linkUp(hellos_.at(a));
-    recompute(a);
-    recompute(b);
-    send(a, b, nodes_.at(a)->fullAdvert(b));
-    send(b, a, nodes_.at(b)->fullAdvert(a));
+    handshake(a, b);
   }
 
   // The link replaced by a new one to the same PEIS (a duplicate link: both
@@ -65,6 +60,11 @@ class Ecology {
     std::erase_if(inFlight_, [&](const InFlight& m) {
       return (m.from == a && m.to == b) || (m.from == b && m.to == a);
     });
+    handshake(a, b);
+  }
+
+  // Both ends take the other's Hello, and each sends its whole table.
+  void handshake(PeisId a, PeisId b) {
     nodes_.at(a)->linkUp(hellos_.at(b));
     nodes_.at(b)->linkUp(hellos_.at(a));
     recompute(a);
