@@ -13,6 +13,7 @@
 #include "net/counters.h"
 #include "net/link.h"
 #include "quiet_trim.h"
+#include "support/run_io_until.h"
 
 using namespace std::chrono_literals;
 namespace asio = boost::asio;
@@ -47,15 +48,7 @@ std::string frame(const std::string& body) {
   return out + body;
 }
 
-// Runs `io` until `done` holds or 10 s pass.
-bool runUntil(asio::io_context& io, const std::function<bool()>& done) {
-  const auto until = std::chrono::steady_clock::now() + 10s;
-  while (!done() && std::chrono::steady_clock::now() < until) {
-    io.restart();
-    io.run_for(5ms);
-  }
-  return done();
-}
+using peis::test::runIoUntil;
 
 }  // namespace
 
@@ -78,7 +71,7 @@ TEST_CASE("an idle link lets go of the big buffers of a burst", "[unit][link]") 
   for (int i = 0; i < 100; ++i) burst += frame(std::string(20 * 1024, 'x'));
   asio::write(peer, asio::buffer(burst));
   link->sendFrame(frame(std::string(100 * 1024, 'y')));
-  REQUIRE(runUntil(io, [&] { return handler.frames == 100; }));
+  REQUIRE(runIoUntil(io, [&] { return handler.frames == 100; }));
   const auto afterBurst = link->bufferBytes();
   CHECK(afterBurst > 32 * 1024);
 
@@ -87,7 +80,7 @@ TEST_CASE("an idle link lets go of the big buffers of a burst", "[unit][link]") 
     asio::write(peer, asio::buffer(frame("ping")));
     link->sendFrame(frame("pong"));
     const int want = 101 + i;
-    REQUIRE(runUntil(io, [&] { return handler.frames == want; }));
+    REQUIRE(runIoUntil(io, [&] { return handler.frames == want; }));
   }
   CHECK(link->bufferBytes() <= 8 * 1024);
   link->close("test over");
@@ -99,12 +92,12 @@ TEST_CASE("QuietTrim trims once, after the changes stop", "[unit][link]") {
       io, [] { return std::uint64_t{0}; }, 20ms);
   trim.noteChange();
   trim.noteChange();  // within the quiet period: still one trim
-  REQUIRE(runUntil(io, [&] { return trim.trims() == 1; }));
+  REQUIRE(runIoUntil(io, [&] { return trim.trims() == 1; }));
   io.restart();
   io.run_for(100ms);  // nothing changed: no further trim
   CHECK(trim.trims() == 1);
   trim.noteChange();
-  REQUIRE(runUntil(io, [&] { return trim.trims() == 2; }));
+  REQUIRE(runIoUntil(io, [&] { return trim.trims() == 2; }));
   trim.stop();
 }
 
@@ -121,7 +114,7 @@ TEST_CASE("QuietTrim waits while data moves", "[unit][link]") {
       },
       10ms);
   trim.noteChange();
-  REQUIRE(runUntil(io, [&] { return checks >= 6; }));  // several quiet periods went by
+  REQUIRE(runIoUntil(io, [&] { return checks >= 6; }));  // several quiet periods went by
   CHECK(trim.trims() == 0);
   trim.stop();
 }

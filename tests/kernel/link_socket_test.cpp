@@ -15,6 +15,8 @@
 #include <memory>
 #include <string>
 
+#include "support/run_io_until.h"
+
 using namespace std::chrono_literals;
 namespace asio = boost::asio;
 using asio::ip::tcp;
@@ -46,14 +48,7 @@ struct Reader {
                              received.append(buffer, n);
                            });
   }
-  bool runUntil(const std::function<bool()>& done) {
-    const auto until = std::chrono::steady_clock::now() + 10s;
-    while (!done() && std::chrono::steady_clock::now() < until) {
-      io.restart();
-      io.run_for(5ms);
-    }
-    return done();
-  }
+  bool runUntil(const std::function<bool()>& done) { return peis::test::runIoUntil(io, done); }
 };
 
 }  // namespace

@@ -14,6 +14,7 @@
 
 #include "net/counters.h"
 #include "net/link.h"
+#include "support/run_io_until.h"
 
 using namespace std::chrono_literals;
 namespace asio = boost::asio;
@@ -82,14 +83,7 @@ std::string big(char type, std::size_t bytes, int seed) {
   return body;
 }
 
-bool runUntil(asio::io_context& io, const std::function<bool()>& done) {
-  const auto until = std::chrono::steady_clock::now() + 10s;
-  while (!done() && std::chrono::steady_clock::now() < until) {
-    io.restart();
-    io.run_for(5ms);
-  }
-  return done();
-}
+using peis::test::runIoUntil;
 
 struct Pair {
   asio::io_context io;
@@ -120,7 +114,7 @@ struct Pair {
         io.run_for(1ms);
       }
     }
-    REQUIRE(runUntil(io, [&] { return handler.frames.size() >= want; }));
+    REQUIRE(runIoUntil(io, [&] { return handler.frames.size() >= want; }));
   }
 };
 

@@ -8,6 +8,8 @@
 #include <optional>
 #include <vector>
 
+#include "support/run_io_until.h"
+
 using namespace std::chrono_literals;
 using peis::Error;
 using peis::ErrorCode;
@@ -16,16 +18,7 @@ namespace wire = peis::wire;
 
 namespace {
 
-// Runs `io` until `done()` holds or `most` passed; returns done().
-template <typename Done>
-bool runUntil(boost::asio::io_context& io, Done done, std::chrono::milliseconds most) {
-  const auto until = std::chrono::steady_clock::now() + most;
-  while (!done() && std::chrono::steady_clock::now() < until) {
-    io.restart();
-    io.run_for(10ms);
-  }
-  return done();
-}
+using peis::test::runIoUntil;
 
 }  // namespace
 
@@ -47,7 +40,7 @@ TEST_CASE("remote writes: unanswered, a write is sent again with its request id 
       10s, [&](std::uint64_t r) { resent.push_back(r); });
   CHECK(request != 0);
   // Sent again after RemoteWrites::kFirstRetry, then after twice that.
-  REQUIRE(runUntil(
+  REQUIRE(runIoUntil(
       io, [&] { return resent.size() >= 2; }, 8s));
   CHECK(resent == std::vector<std::uint64_t>{request, request});
   CHECK(writes.resent() == 2);
@@ -57,7 +50,7 @@ TEST_CASE("remote writes: unanswered, a write is sent again with its request id 
   CHECK(completions == 1);
   CHECK_FALSE(error);
   CHECK(seqno == 4);
-  runUntil(
+  runIoUntil(
       io, [] { return false; }, 4500ms);
   CHECK(resent.size() == 2);
 }
@@ -71,7 +64,7 @@ TEST_CASE("remote writes: not sent again past the deadline, and ids differ betwe
   writes.add(
       7, [&](const std::optional<Error>& e, std::uint64_t) { error = e; }, 1500ms,
       [&](std::uint64_t) { ++resends; });
-  REQUIRE(runUntil(
+  REQUIRE(runIoUntil(
       io, [&] { return error.has_value(); }, 5s));
   CHECK(error->code() == ErrorCode::Timeout);
   CHECK(resends == 1);  // at 1 s; 2 s more would pass the deadline
@@ -79,7 +72,7 @@ TEST_CASE("remote writes: not sent again past the deadline, and ids differ betwe
   std::optional<Error> plain;
   writes.add(
       7, [&](const std::optional<Error>& e, std::uint64_t) { plain = e; }, 50ms);
-  REQUIRE(runUntil(
+  REQUIRE(runIoUntil(
       io, [&] { return plain.has_value(); }, 5s));
   CHECK(writes.resent() == 1);
   // Two lives of a PEIS start their request ids apart.
